@@ -1,0 +1,90 @@
+// FEM reference time against problem size (issue: "FEM time against degrees of freedom").
+// Each case meshes B2 (R = 50 mm, a = 2.5 mm, frictionless) at a refinement level and solves it
+// with each linear solver; assembly and solve times are reported as counters next to the dofs.
+//
+//   ./build/release/benchmarks/fem_benchmark                 # paper's size up to ~75K dofs
+//   TOUCHSTONE_BENCH_LARGE=1 ./build/release/benchmarks/fem_benchmark   # adds ~520K dofs
+#include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/meshes/benchmark_geometry.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <map>
+#include <string>
+
+namespace {
+
+using namespace touchstone;
+
+/// The B2 geometry of studies/b2_reference.toml at refinement `level`.
+const std::string& b2_mesh(int level) {
+  static std::map<int, std::string> paths;
+  auto it = paths.find(level);
+  if (it != paths.end()) return it->second;
+  meshes::MeshParameters parameters;
+  parameters.benchmark = meshes::Benchmark::B2;
+  parameters.body_radius_m = 0.05;
+  parameters.tool_radius_m = 0.0025;
+  parameters.edge_size_m = 0.0025 / 4;
+  parameters.size_growth = 0.5;
+  parameters.max_size_m = 0.01;
+  parameters.refinement = level;
+  const std::string path = "fem_benchmark_b2_L" + std::to_string(level) + ".msh";
+  meshes::generate_mesh(parameters, path);
+  return paths[level] = path;
+}
+
+void fem_solve(benchmark::State& state) {
+  fem::ElasticityProblem problem;
+  problem.mesh_path = b2_mesh(static_cast<int>(state.range(0)));
+  problem.punch = fem::RigidPunch{2.5e-4, {0, 0, -1}, fem::Contact::frictionless};
+  problem.solver.solver = static_cast<fem::LinearSolver>(state.range(1));
+  fem::ElasticitySolution solution;
+  double assembly = 0, solve = 0, setup = 0;
+  for (auto _ : state) {
+    solution = fem::solve_elasticity(problem);
+    assembly += solution.assembly_s;
+    solve += solution.solve_s;
+    setup += solution.setup_s + solution.read_mesh_s;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["dofs"] = static_cast<double>(solution.dof_count);
+  state.counters["fe_nodes"] = static_cast<double>(solution.node_count);
+  state.counters["setup_s"] = setup / n;
+  state.counters["assembly_s"] = assembly / n;
+  state.counters["solve_s"] = solve / n;
+  state.counters["iterations"] = solution.solver_iterations;
+  state.SetLabel(solution.solver_name);
+}
+
+void register_cases() {
+  const bool large = std::getenv("TOUCHSTONE_BENCH_LARGE") != nullptr;
+  for (const auto solver : {fem::LinearSolver::cg_amg_trilinos, fem::LinearSolver::cg_gamg_petsc,
+                            fem::LinearSolver::direct_mumps}) {
+    for (int level = 0; level <= (large ? 2 : 1); ++level) {
+      // MUMPS at ~520K P2 dofs needs tens of GB: iterative solvers only at the large end.
+      if (level == 2 && solver == fem::LinearSolver::direct_mumps) continue;
+      benchmark::RegisterBenchmark(("fem_solve/B2/L" + std::to_string(level) + "/" + fem::to_string(solver)).c_str(),
+                                   fem_solve)
+          ->Args({level, static_cast<long>(solver)})
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(1)
+          ->Repetitions(level == 0 ? 5 : 3)
+          ->ReportAggregatesOnly(true)
+          ->UseRealTime();
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fem::MpiSession mpi(argc, argv);
+  register_cases();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,90 @@
+#pragma once
+/// @file
+/// gmsh geometry and tetrahedral meshes of the indentation benchmarks (DESIGN.md §3).
+///
+/// Every mesh is written as MSH 2.2 ASCII with named physical groups whose numeric tags are
+/// fixed (see boundary_tags below), so that a reader that sees only numbers (deal.II's
+/// GridIn::read_msh) and a reader that sees names agree. The tool-patch circle is a curve of the
+/// geometry, so the patch edge is exact; a size field grades the mesh toward that edge, where
+/// the contact stress is singular.
+
+#include <array>
+#include <cstddef>
+#include <string>
+
+namespace touchstone::meshes {
+
+/// Which benchmark domain to build (DESIGN.md §3).
+enum class Benchmark {
+  B1,   ///< cylinder of radius W and height W, top face z = 0, base z = −W clamped, patch at the top centre
+  B2,   ///< hemisphere of radius R, flat base z = 0, patch (radius a) at the pole (0, 0, R)
+  B3,   ///< B2 ∩ ball(pole, L): the MFS local domain; the sphere of radius L is the "cut" surface
+  B5,   ///< B2 with the patch centred at polar angle θ from the pole (rotated about the y axis)
+  Box,  ///< box [0, Lx]×[0, Ly]×[0, Lz] for tests; faces named x_min … z_max
+};
+
+/// Fixed physical-group tags. Surfaces: base, tool_patch, free, cut (benchmarks) and the six box
+/// faces. Volume: tissue.
+namespace boundary_tags {
+inline constexpr int base = 1;
+inline constexpr int tool_patch = 2;
+inline constexpr int free = 3;
+inline constexpr int cut = 4;
+inline constexpr int x_min = 11;
+inline constexpr int x_max = 12;
+inline constexpr int y_min = 13;
+inline constexpr int y_max = 14;
+inline constexpr int z_min = 15;
+inline constexpr int z_max = 16;
+inline constexpr int tissue = 100;  ///< volume group
+}  // namespace boundary_tags
+
+/// Geometry and mesh-size parameters. All lengths in metres, angles in radians.
+struct MeshParameters {
+  Benchmark benchmark = Benchmark::B2;
+  double body_radius_m = 0.05;        ///< R (B2, B3, B5) or W (B1: cylinder radius = height)
+  double tool_radius_m = 0.0025;      ///< a, radius of the tool patch circle
+  double local_radius_m = 0.0125;     ///< L (B3 only), radius of the ball around the pole
+  double contact_polar_angle_rad = 0; ///< θ (B5 only), polar angle of the patch centre, 0 < θ < π/2
+  std::array<double, 3> box_size_m{1.0, 1.0, 1.0};  ///< Box only
+
+  /// Element size at the patch edge at refinement 0 [m]. Box: the uniform size.
+  double edge_size_m = 0.0025 / 4;
+  /// Growth of the element size with distance d from the patch edge:
+  /// h(d) = min(max_size_m, edge_size_m + size_growth · d) at refinement 0 (dimensionless).
+  double size_growth = 0.5;
+  /// Grading exponent β: h(d) = min(max_size_m, edge_size_m + size_growth · a · (d/a)^β).
+  /// β = 1 is the linear law above; β < 1 concentrates elements at the singular edge
+  /// (β ≈ 1 − λ/p = 3/4 suits the r^(1/2) edge singularity with P2 elements).
+  double size_exponent = 1.0;
+  /// Largest element size at refinement 0 [m].
+  double max_size_m = 0.01;
+  /// Each refinement level halves every size (edge, growth law, max): h → h / 2^refinement.
+  int refinement = 0;
+
+  /// Throws std::invalid_argument naming the offending field and value.
+  void validate() const;
+};
+
+/// What was written.
+struct MeshSummary {
+  std::string path;
+  std::size_t node_count = 0;         ///< mesh vertices
+  std::size_t tetrahedron_count = 0;
+  std::size_t patch_triangle_count = 0;
+  double seconds = 0;                 ///< wall time to build and mesh
+};
+
+/// Builds the geometry with gmsh's OpenCASCADE kernel, meshes it with tetrahedra (first order)
+/// and writes MSH 2.2 ASCII to msh_path. Thread-safe (gmsh is global: calls are serialised).
+/// Throws std::runtime_error with the parameters named when gmsh fails.
+MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& msh_path);
+
+/// Writes the same geometry as a .geo_unrolled script (opens in the gmsh GUI) for inspection.
+void write_geometry_script(const MeshParameters& parameters, const std::string& geo_path);
+
+/// "B1" … "B5", "box"; and back (throws std::invalid_argument naming the value).
+std::string to_string(Benchmark benchmark);
+Benchmark benchmark_from_string(const std::string& name);
+
+}  // namespace touchstone::meshes

@@ -1,0 +1,143 @@
+#pragma once
+/// @file
+/// The full-domain finite element reference: linear elasticity on a gmsh tetrahedral mesh,
+/// loaded by a rigid flat punch (DESIGN.md §3, §5). Plain structs and Eigen only: deal.II stays
+/// inside reference_fem/src.
+
+#include <Eigen/Core>
+#include <mpi.h>
+
+#include <array>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace touchstone::fem {
+
+/// Isotropic linear elastic material.
+struct Material {
+  double youngs_modulus_Pa = 10.0e3;  ///< E [Pa]; the paper's stomach tissue
+  double poisson_ratio = 0.45;        ///< ν [-], 0 ≤ ν < 0.5
+  /// Throws std::invalid_argument naming the field and value (E ≤ 0, ν ∉ [0, 0.5), non-finite).
+  void validate() const;
+  /// λ = Eν / ((1+ν)(1−2ν)) [Pa]
+  double lame_lambda_Pa() const;
+  /// μ = G = E / (2(1+ν)) [Pa]
+  double shear_modulus_Pa() const;
+};
+
+/// How the punch face holds the tissue surface.
+enum class Contact {
+  frictionless,  ///< only the displacement component along the punch axis is prescribed
+  bonded,        ///< all three components are prescribed (no slip)
+};
+
+/// A rigid flat punch whose face is the boundary named `tool_patch`, pressed by depth_m along
+/// direction (normalised on use): the patch displacement is u·d = depth (frictionless) or
+/// u = depth·d (bonded).
+struct RigidPunch {
+  double depth_m = 1.0e-4;
+  Eigen::Vector3d direction{0.0, 0.0, -1.0};
+  Contact contact = Contact::frictionless;
+  void validate() const;
+};
+
+/// A vector field of position [m] → value (displacement [m], traction [Pa] or body force [N/m³]).
+using VectorField = std::function<Eigen::Vector3d(const Eigen::Vector3d&)>;
+
+/// A condition on one named boundary (a gmsh physical group name).
+struct BoundaryCondition {
+  enum class Kind { displacement, traction };
+  std::string boundary;
+  Kind kind = Kind::displacement;
+  VectorField value;
+};
+
+enum class LinearSolver {
+  cg_amg_trilinos,  ///< CG + Trilinos ML, translation near-null space (default)
+  cg_gamg_petsc,    ///< CG + PETSc GAMG, rigid-body near-null space
+  direct_mumps,     ///< PETSc + MUMPS sparse LU (small cases)
+};
+
+struct SolverParameters {
+  unsigned int degree = 2;              ///< polynomial degree of the simplex element P1 or P2
+  LinearSolver solver = LinearSolver::cg_amg_trilinos;
+  double relative_tolerance = 1.0e-10;  ///< ‖r‖ ≤ tol · ‖b‖ for the iterative solvers
+  unsigned int max_iterations = 5000;
+  void validate() const;
+};
+
+/// One linear elasticity solve. Boundaries not named anywhere are traction-free.
+struct ElasticityProblem {
+  std::string mesh_path;                     ///< gmsh MSH 2.2 or 4.1 ASCII with named physical groups
+  Material material;
+  std::vector<std::string> clamped_boundaries{"base", "cut"};  ///< u = 0 where these exist
+  std::optional<RigidPunch> punch;           ///< applied on the boundary named "tool_patch"
+  std::vector<BoundaryCondition> conditions; ///< further conditions (manufactured solutions, tests)
+  VectorField body_force;                    ///< [N/m³]; empty: none
+  VectorField exact_displacement;            ///< [m]; when set, the L2 error is computed
+  std::vector<Eigen::Vector3d> probes;       ///< points [m] where u is reported
+  SolverParameters solver;
+  std::string vtu_directory;                 ///< empty: no VTU written
+  std::string vtu_basename = "solution";
+  void validate() const;
+};
+
+struct ElasticitySolution {
+  /// Tool force on the tissue [N]: the sum of the unconstrained residual K u − f over the
+  /// degrees of freedom of the patch (the reaction the punch must supply).
+  Eigen::Vector3d force_N = Eigen::Vector3d::Zero();
+  /// Strain energy U = ½ uᵀ K u [J].
+  double energy_J = 0;
+  /// 2U/δ [N]: the force along the punch axis implied by the energy (equals F·d for a
+  /// displacement-driven load with everything else fixed or free).
+  double energy_force_N = 0;
+
+  std::vector<Eigen::Vector3d> probe_displacements_m;
+  std::vector<bool> probe_found;  ///< false where a probe lies outside the mesh
+
+  double l2_error_m = -1;  ///< ‖u_h − u‖_L2 [m·m^{3/2}] when exact_displacement is set
+
+  std::size_t dof_count = 0;
+  std::size_t node_count = 0;  ///< support points of the element (dofs / 3)
+  std::size_t cell_count = 0;
+  unsigned int mpi_processes = 1;
+
+  std::string solver_name;
+  unsigned int solver_iterations = 0;
+  double solver_residual = 0;  ///< final residual norm reported by the solver
+
+  /// Wall times [s] on rank 0 (every phase ends with a barrier-free local measurement).
+  double read_mesh_s = 0, setup_s = 0, assembly_s = 0, solve_s = 0, postprocess_s = 0, output_s = 0;
+  std::string vtu_file;  ///< the .pvtu written, if any
+};
+
+/// Solves `problem` on `communicator` (call inside an MpiSession). Collective; every rank
+/// returns the same solution summary. Throws std::runtime_error on a mesh without the
+/// boundaries named, a solver failure, or any input problem, naming file and boundary.
+ElasticitySolution solve_elasticity(const ElasticityProblem& problem,
+                                    MPI_Comm communicator = MPI_COMM_WORLD);
+
+/// Initialises and finalises MPI, PETSc and SLEPc (deal.II's MPI_InitFinalize) for the program.
+class MpiSession {
+ public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+  static unsigned int rank();
+  static unsigned int size();
+  static void barrier();
+
+ private:
+  struct Impl;
+  Impl* impl_;
+};
+
+std::string to_string(LinearSolver solver);
+LinearSolver linear_solver_from_string(const std::string& name);  ///< throws, listing the names
+std::string to_string(Contact contact);
+Contact contact_from_string(const std::string& name);
+
+}  // namespace touchstone::fem

@@ -1,0 +1,636 @@
+// Linear elasticity on a tetrahedral gmsh mesh with deal.II 9.4 simplex elements.
+//
+// Why simplices: gmsh grades tetrahedra toward the patch-edge circle (where the contact
+// stress is singular) with an exact circle in the geometry; 3-D hexahedral recombination in
+// gmsh is not reliable enough for a reference. FE_SimplexP(2) on a linear mapping converges at
+// the element's order for smooth solutions (tested), and at first order in the edge size for the
+// punch (the r^(1/2) edge singularity), which the convergence study measures.
+//
+// The parallel layout follows step-40 on a parallel::shared::Triangulation: every rank holds the
+// whole mesh (cheap at reference sizes, and it keeps probe evaluation and patch bookkeeping
+// simple), assembles its own cells, and the linear algebra is distributed.
+
+#include "touchstone/fem/elasticity_problem.hpp"
+
+#include "msh_physical_names.hpp"
+
+#include <deal.II/base/function.h>
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/distributed/shared_tria.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/grid_in.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/generic_linear_algebra.h>
+#include <deal.II/lac/petsc_solver.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/lac/trilinos_precondition.h>
+#include <deal.II/lac/trilinos_solver.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/data_postprocessor.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <petscksp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace touchstone::fem {
+namespace {
+
+using namespace dealii;
+constexpr int dim = 3;
+
+Point<dim> to_point(const Eigen::Vector3d& v) { return Point<dim>(v[0], v[1], v[2]); }
+Eigen::Vector3d to_eigen(const Point<dim>& p) { return {p[0], p[1], p[2]}; }
+
+/// A VectorField seen as a deal.II Function with three components.
+class FieldFunction : public Function<dim> {
+ public:
+  explicit FieldFunction(VectorField field) : Function<dim>(dim), field_(std::move(field)) {}
+  double value(const Point<dim>& p, const unsigned int component) const override {
+    return field_(to_eigen(p))[component];
+  }
+  void vector_value(const Point<dim>& p, Vector<double>& values) const override {
+    const Eigen::Vector3d v = field_(to_eigen(p));
+    for (int i = 0; i < dim; ++i) values[i] = v[i];
+  }
+
+ private:
+  VectorField field_;
+};
+
+/// Stress σ = λ tr(ε) I + 2μ ε (six components, Voigt order xx yy zz yz xz xy) and von Mises.
+class StressPostprocessor : public DataPostprocessor<dim> {
+ public:
+  StressPostprocessor(double lambda, double mu) : lambda_(lambda), mu_(mu) {}
+
+  void evaluate_vector_field(const DataPostprocessorInputs::Vector<dim>& inputs,
+                             std::vector<Vector<double>>& computed) const override {
+    for (std::size_t q = 0; q < inputs.solution_gradients.size(); ++q) {
+      const auto& grad = inputs.solution_gradients[q];
+      SymmetricTensor<2, dim> strain;
+      for (int i = 0; i < dim; ++i)
+        for (int j = i; j < dim; ++j) strain[i][j] = 0.5 * (grad[i][j] + grad[j][i]);
+      const SymmetricTensor<2, dim> stress =
+          lambda_ * trace(strain) * unit_symmetric_tensor<dim>() + 2 * mu_ * strain;
+      const SymmetricTensor<2, dim> dev = deviator(stress);
+      computed[q][0] = stress[0][0];
+      computed[q][1] = stress[1][1];
+      computed[q][2] = stress[2][2];
+      computed[q][3] = stress[1][2];
+      computed[q][4] = stress[0][2];
+      computed[q][5] = stress[0][1];
+      computed[q][6] = std::sqrt(1.5 * scalar_product(dev, dev));
+    }
+  }
+  std::vector<std::string> get_names() const override {
+    return {"stress_xx_Pa", "stress_yy_Pa", "stress_zz_Pa", "stress_yz_Pa",
+            "stress_xz_Pa", "stress_xy_Pa", "von_mises_Pa"};
+  }
+  std::vector<DataComponentInterpretation::DataComponentInterpretation>
+  get_data_component_interpretation() const override {
+    return std::vector<DataComponentInterpretation::DataComponentInterpretation>(
+        7, DataComponentInterpretation::component_is_scalar);
+  }
+  UpdateFlags get_needed_update_flags() const override { return update_gradients; }
+
+ private:
+  double lambda_, mu_;
+};
+
+double elapsed(Timer& timer) {
+  timer.stop();
+  const double t = timer.wall_time();
+  timer.reset();
+  timer.start();
+  return t;
+}
+
+/// The two linear-algebra backends (step-40's LinearAlgebra namespaces as types).
+struct TrilinosAlgebra {
+  using SparseMatrix = TrilinosWrappers::SparseMatrix;
+  using Vector = TrilinosWrappers::MPI::Vector;
+};
+struct PetscAlgebra {
+  using SparseMatrix = PETScWrappers::MPI::SparseMatrix;
+  using Vector = PETScWrappers::MPI::Vector;
+};
+
+/// The whole solve, templated on the linear-algebra backend.
+template <typename LA>
+class ElasticitySolver {
+ public:
+  ElasticitySolver(const ElasticityProblem& problem, MPI_Comm communicator)
+      : problem_(problem),
+        comm_(communicator),
+        triangulation_(comm_),
+        fe_(FE_SimplexP<dim>(problem.solver.degree), dim),
+        mapping_(FE_SimplexP<dim>(1)),
+        dof_handler_(triangulation_),
+        quadrature_(problem.solver.degree + 1),
+        face_quadrature_(problem.solver.degree + 1),
+        lambda_(problem.material.lame_lambda_Pa()),
+        mu_(problem.material.shear_modulus_Pa()) {}
+
+  ElasticitySolution run() {
+    Timer timer(comm_);
+    timer.start();
+    read_mesh();
+    result_.read_mesh_s = elapsed(timer);
+    setup();
+    result_.setup_s = elapsed(timer);
+    assemble();
+    result_.assembly_s = elapsed(timer);
+    solve();
+    result_.solve_s = elapsed(timer);
+    postprocess();
+    result_.postprocess_s = elapsed(timer);
+    if (!problem_.vtu_directory.empty()) write_vtu();
+    result_.output_s = elapsed(timer);
+    return result_;
+  }
+
+ private:
+  void read_mesh() {
+    names_ = read_msh_physical_names(problem_.mesh_path);
+    std::ifstream in(problem_.mesh_path);
+    if (!in) throw std::runtime_error(problem_.mesh_path + ": cannot open mesh file");
+    GridIn<dim> grid_in;
+    grid_in.attach_triangulation(triangulation_);
+    try {
+      grid_in.read_msh(in);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(problem_.mesh_path + ": deal.II could not read the mesh: " + e.what());
+    }
+    if (!triangulation_.all_reference_cells_are_simplex())
+      throw std::runtime_error(problem_.mesh_path + ": expected a tetrahedral mesh");
+
+    // A boundary face gmsh did not put into any physical group comes back with id 0: it would
+    // silently become traction-free, so refuse it.
+    for (const auto& cell : triangulation_.active_cell_iterators())
+      for (const auto f : cell->face_indices())
+        if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == 0)
+          throw std::runtime_error(problem_.mesh_path +
+                                   ": boundary faces without a physical group (every boundary "
+                                   "surface must be named)");
+  }
+
+  types::boundary_id boundary_id(const std::string& name, bool required) const {
+    const auto it = names_.surfaces.find(name);
+    if (it == names_.surfaces.end()) {
+      if (required)
+        throw std::runtime_error(problem_.mesh_path + ": no surface physical group named '" +
+                                 name + "' (has: " + names_.surface_list() + ")");
+      return numbers::invalid_boundary_id;
+    }
+    return static_cast<types::boundary_id>(it->second);
+  }
+
+  void setup() {
+    dof_handler_.distribute_dofs(fe_);
+    locally_owned_ = dof_handler_.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof_handler_, locally_relevant_);
+
+    constraints_.clear();
+    for (const auto& name : problem_.clamped_boundaries) {
+      const auto id = boundary_id(name, false);
+      if (id != numbers::invalid_boundary_id)
+        VectorTools::interpolate_boundary_values(mapping_, dof_handler_, id,
+                                                 Functions::ZeroFunction<dim>(dim), constraints_);
+    }
+    for (const auto& condition : problem_.conditions) {
+      if (condition.kind != BoundaryCondition::Kind::displacement) continue;
+      VectorTools::interpolate_boundary_values(mapping_, dof_handler_,
+                                               boundary_id(condition.boundary, true),
+                                               FieldFunction(condition.value), constraints_);
+    }
+    if (problem_.punch) add_punch_constraints(*problem_.punch);
+    constraints_.close();
+
+    DynamicSparsityPattern dsp(locally_relevant_);
+    DoFTools::make_sparsity_pattern(dof_handler_, dsp, constraints_, false);
+    SparsityTools::distribute_sparsity_pattern(dsp, locally_owned_, comm_, locally_relevant_);
+    system_matrix_.reinit(locally_owned_, locally_owned_, dsp, comm_);
+    system_rhs_.reinit(locally_owned_, comm_);
+    solution_.reinit(locally_owned_, comm_);
+    ghosted_solution_.reinit(locally_owned_, locally_relevant_, comm_);
+
+    result_.dof_count = dof_handler_.n_dofs();
+    result_.node_count = dof_handler_.n_dofs() / dim;
+    result_.cell_count = triangulation_.n_active_cells();
+    result_.mpi_processes = Utilities::MPI::n_mpi_processes(comm_);
+  }
+
+  /// Bonded: u = δ d. Frictionless: the single linear constraint u·d = δ per patch node,
+  /// written on the component where |d_k| is largest (so any direction works, not only −z).
+  void add_punch_constraints(const RigidPunch& punch) {
+    const types::boundary_id patch = boundary_id("tool_patch", true);
+    const Eigen::Vector3d d = punch.direction.normalized();
+    if (punch.contact == Contact::bonded) {
+      const Eigen::Vector3d u = punch.depth_m * d;
+      VectorTools::interpolate_boundary_values(
+          mapping_, dof_handler_, patch,
+          Functions::ConstantFunction<dim>(std::vector<double>{u[0], u[1], u[2]}), constraints_);
+      return;
+    }
+    int k = 0;
+    d.cwiseAbs().maxCoeff(&k);
+    std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
+    for (const auto& cell : dof_handler_.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      for (const auto f : cell->face_indices()) {
+        if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != patch) continue;
+        cell->get_dof_indices(dofs);
+        // Group the face's dofs by support point: the scalar base index is shared by the
+        // three components of one node.
+        std::map<unsigned int, std::array<types::global_dof_index, dim>> nodes;
+        for (unsigned int i = 0; i < fe_.n_dofs_per_cell(); ++i) {
+          if (!fe_.has_support_on_face(i, f)) continue;
+          const auto [component, base_index] = fe_.system_to_component_index(i);
+          nodes[base_index][component] = dofs[i];
+        }
+        for (const auto& [base_index, node] : nodes) {
+          const auto line = node[k];
+          if (constraints_.is_constrained(line)) continue;
+          constraints_.add_line(line);
+          for (int j = 0; j < dim; ++j)
+            if (j != k && std::abs(d[j]) > 1e-14) constraints_.add_entry(line, node[j], -d[j] / d[k]);
+          constraints_.set_inhomogeneity(line, punch.depth_m / d[k]);
+        }
+      }
+    }
+  }
+
+  /// K_c = ∫ (2μ ε(φ_i):ε(φ_j) + λ div φ_i div φ_j) dx, using the symmetry of K_c.
+  void cell_matrix(const FEValues<dim>& fe_values, FullMatrix<double>& matrix) const {
+    const FEValuesExtractors::Vector u(0);
+    const unsigned int n = fe_.n_dofs_per_cell();
+    std::vector<SymmetricTensor<2, dim>> strain(n);
+    std::vector<double> divergence(n);
+    matrix = 0;
+    for (const unsigned int q : fe_values.quadrature_point_indices()) {
+      for (unsigned int i = 0; i < n; ++i) {
+        strain[i] = fe_values[u].symmetric_gradient(i, q);
+        divergence[i] = trace(strain[i]);
+      }
+      const double jxw = fe_values.JxW(q);
+      for (unsigned int i = 0; i < n; ++i)
+        for (unsigned int j = i; j < n; ++j)
+          matrix(i, j) += (2 * mu_ * (strain[i] * strain[j]) + lambda_ * divergence[i] * divergence[j]) * jxw;
+    }
+    for (unsigned int i = 0; i < n; ++i)
+      for (unsigned int j = 0; j < i; ++j) matrix(i, j) = matrix(j, i);
+  }
+
+  /// f_c = ∫ φ_i·b dx + ∫_Γt φ_i·t̄ ds.
+  void cell_load(const typename DoFHandler<dim>::active_cell_iterator& cell,
+                 const FEValues<dim>& fe_values, FEFaceValues<dim>& face_values,
+                 Vector<double>& load) const {
+    const FEValuesExtractors::Vector u(0);
+    load = 0;
+    if (problem_.body_force) {
+      for (const unsigned int q : fe_values.quadrature_point_indices()) {
+        const Eigen::Vector3d b = problem_.body_force(to_eigen(fe_values.quadrature_point(q)));
+        const Tensor<1, dim> bt({b[0], b[1], b[2]});
+        for (unsigned int i = 0; i < fe_.n_dofs_per_cell(); ++i)
+          load(i) += fe_values[u].value(i, q) * bt * fe_values.JxW(q);
+      }
+    }
+    for (const auto& condition : problem_.conditions) {
+      if (condition.kind != BoundaryCondition::Kind::traction) continue;
+      const auto id = boundary_id(condition.boundary, true);
+      for (const auto f : cell->face_indices()) {
+        if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != id) continue;
+        face_values.reinit(cell, f);
+        for (const unsigned int q : face_values.quadrature_point_indices()) {
+          const Eigen::Vector3d t = condition.value(to_eigen(face_values.quadrature_point(q)));
+          const Tensor<1, dim> tt({t[0], t[1], t[2]});
+          for (unsigned int i = 0; i < fe_.n_dofs_per_cell(); ++i)
+            load(i) += face_values[u].value(i, q) * tt * face_values.JxW(q);
+        }
+      }
+    }
+  }
+
+  bool has_load() const {
+    if (problem_.body_force) return true;
+    return std::any_of(problem_.conditions.begin(), problem_.conditions.end(), [](const auto& c) {
+      return c.kind == BoundaryCondition::Kind::traction;
+    });
+  }
+
+  void assemble() {
+    FEValues<dim> fe_values(mapping_, fe_, quadrature_,
+                            update_values | update_gradients | update_quadrature_points |
+                                update_JxW_values);
+    FEFaceValues<dim> face_values(mapping_, fe_, face_quadrature_,
+                                  update_values | update_quadrature_points | update_JxW_values);
+    const unsigned int n = fe_.n_dofs_per_cell();
+    FullMatrix<double> matrix(n, n);
+    Vector<double> load(n);
+    std::vector<types::global_dof_index> dofs(n);
+    const bool loaded = has_load();
+    for (const auto& cell : dof_handler_.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fe_values.reinit(cell);
+      cell_matrix(fe_values, matrix);
+      if (loaded) cell_load(cell, fe_values, face_values, load);
+      cell->get_dof_indices(dofs);
+      constraints_.distribute_local_to_global(matrix, load, dofs, system_matrix_, system_rhs_);
+    }
+    system_matrix_.compress(VectorOperation::add);
+    system_rhs_.compress(VectorOperation::add);
+  }
+
+  void solve();
+
+  /// Reaction force from the unconstrained residual r = K u − f on the patch dofs, strain
+  /// energy, probe values and (optionally) the L2 error. Each cell is owned by one rank, so the
+  /// cell-wise sums add up over ranks without double counting.
+  void postprocess() {
+    std::vector<bool> on_patch(dof_handler_.n_dofs(), false);
+    const types::boundary_id patch =
+        problem_.punch ? boundary_id("tool_patch", true) : numbers::invalid_boundary_id;
+    const unsigned int n = fe_.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n);
+    if (problem_.punch) {
+      for (const auto& cell : dof_handler_.active_cell_iterators()) {
+        if (cell->is_artificial()) continue;
+        for (const auto f : cell->face_indices()) {
+          if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != patch) continue;
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < n; ++i)
+            if (fe_.has_support_on_face(i, f)) on_patch[dofs[i]] = true;
+        }
+      }
+    }
+
+    FEValues<dim> fe_values(mapping_, fe_, quadrature_,
+                            update_values | update_gradients | update_quadrature_points |
+                                update_JxW_values);
+    FEFaceValues<dim> face_values(mapping_, fe_, face_quadrature_,
+                                  update_values | update_quadrature_points | update_JxW_values);
+    FullMatrix<double> matrix(n, n);
+    Vector<double> load(n), u(n), ku(n);
+    const bool loaded = has_load();
+    double energy = 0;
+    Tensor<1, dim> force;
+    for (const auto& cell : dof_handler_.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fe_values.reinit(cell);
+      cell_matrix(fe_values, matrix);
+      cell->get_dof_values(ghosted_solution_, u);
+      matrix.vmult(ku, u);
+      energy += 0.5 * (u * ku);
+      if (!problem_.punch) continue;
+      if (loaded) cell_load(cell, fe_values, face_values, load);
+      cell->get_dof_indices(dofs);
+      for (unsigned int i = 0; i < n; ++i)
+        if (on_patch[dofs[i]])
+          force[fe_.system_to_component_index(i).first] += ku(i) - (loaded ? load(i) : 0.0);
+    }
+    energy = Utilities::MPI::sum(energy, comm_);
+    force = Utilities::MPI::sum(force, comm_);
+    result_.energy_J = energy;
+    result_.force_N = to_eigen(Point<dim>(force));
+    if (problem_.punch) result_.energy_force_N = 2 * energy / problem_.punch->depth_m;
+
+    evaluate_probes();
+
+    if (problem_.exact_displacement) {
+      Vector<float> cellwise(triangulation_.n_active_cells());
+      VectorTools::integrate_difference(mapping_, dof_handler_, ghosted_solution_,
+                                        FieldFunction(problem_.exact_displacement), cellwise,
+                                        QGaussSimplex<dim>(problem_.solver.degree + 2),
+                                        VectorTools::L2_norm);
+      result_.l2_error_m =
+          VectorTools::compute_global_error(triangulation_, cellwise, VectorTools::L2_norm);
+    }
+  }
+
+  /// Every rank holds the whole mesh, so every rank can find the cell; only its owner has the
+  /// values, and a sum over ranks delivers them everywhere. Points a little outside the faceted
+  /// surface (a probe on the exact sphere) are accepted within a tolerance in cell coordinates.
+  void evaluate_probes() {
+    const std::size_t count = problem_.probes.size();
+    std::vector<double> values(3 * count, 0.0), found(count, 0.0);
+    GridTools::Cache<dim> cache(triangulation_, mapping_);
+    for (std::size_t p = 0; p < count; ++p) {
+      const Point<dim> point = to_point(problem_.probes[p]);
+      std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> located;
+      try {
+        located = GridTools::find_active_cell_around_point(cache, point, {}, {}, 1e-2);
+      } catch (const std::exception&) {
+        continue;
+      }
+      if (located.first.state() != IteratorState::valid || !located.first->is_locally_owned())
+        continue;
+      const typename DoFHandler<dim>::active_cell_iterator cell(&triangulation_, located.first->level(),
+                                                                 located.first->index(), &dof_handler_);
+      FEValues<dim> fe_values(mapping_, fe_, Quadrature<dim>(located.second), update_values);
+      fe_values.reinit(cell);
+      std::vector<Vector<double>> value(1, Vector<double>(dim));
+      fe_values.get_function_values(ghosted_solution_, value);
+      for (int c = 0; c < dim; ++c) values[3 * p + c] = value[0][c];
+      found[p] = 1.0;
+    }
+    // A probe exactly on a partition boundary is found by two ranks: average over finders.
+    Utilities::MPI::sum(values, comm_, values);
+    Utilities::MPI::sum(found, comm_, found);
+    result_.probe_displacements_m.assign(count, Eigen::Vector3d::Zero());
+    result_.probe_found.assign(count, false);
+    for (std::size_t p = 0; p < count; ++p) {
+      if (found[p] < 0.5) continue;
+      result_.probe_found[p] = true;
+      for (int c = 0; c < dim; ++c) result_.probe_displacements_m[p][c] = values[3 * p + c] / found[p];
+    }
+  }
+
+  void write_vtu() {
+    DataOut<dim> data_out;
+    data_out.attach_dof_handler(dof_handler_);
+    const std::vector<DataComponentInterpretation::DataComponentInterpretation> vector_field(
+        dim, DataComponentInterpretation::component_is_part_of_vector);
+    data_out.add_data_vector(ghosted_solution_, std::vector<std::string>(dim, "displacement_m"),
+                             DataOut<dim>::type_dof_data, vector_field);
+    const StressPostprocessor stress(lambda_, mu_);
+    data_out.add_data_vector(ghosted_solution_, stress);
+    Vector<float> subdomain(triangulation_.n_active_cells());
+    for (auto& s : subdomain) s = static_cast<float>(triangulation_.locally_owned_subdomain());
+    data_out.add_data_vector(subdomain, "subdomain");
+    data_out.build_patches(mapping_);
+    std::string directory = problem_.vtu_directory;
+    if (directory.back() != '/') directory += '/';
+    result_.vtu_file = directory + data_out.write_vtu_with_pvtu_record(
+                                       directory, problem_.vtu_basename, 0, comm_, 2);
+  }
+
+  const ElasticityProblem& problem_;
+  MPI_Comm comm_;
+  parallel::shared::Triangulation<dim> triangulation_;
+  FESystem<dim> fe_;
+  MappingFE<dim> mapping_;
+  DoFHandler<dim> dof_handler_;
+  QGaussSimplex<dim> quadrature_;
+  QGaussSimplex<dim - 1> face_quadrature_;
+  double lambda_, mu_;
+  MshPhysicalNames names_;
+
+  IndexSet locally_owned_, locally_relevant_;
+  AffineConstraints<double> constraints_;
+  typename LA::SparseMatrix system_matrix_;
+  typename LA::Vector system_rhs_, solution_, ghosted_solution_;
+  ElasticitySolution result_;
+};
+
+/// CG + Trilinos ML. ML gets the three translations as near-null space (9.4 accepts only
+/// constant modes), with settings for higher-order elliptic problems.
+template <>
+void ElasticitySolver<TrilinosAlgebra>::solve() {
+  TrilinosWrappers::PreconditionAMG::AdditionalData data;
+  data.elliptic = true;
+  data.higher_order_elements = problem_.solver.degree > 1;
+  data.smoother_sweeps = 2;
+  data.aggregation_threshold = 0.02;
+  DoFTools::extract_constant_modes(dof_handler_, ComponentMask(), data.constant_modes);
+  TrilinosWrappers::PreconditionAMG amg;
+  amg.initialize(system_matrix_, data);
+
+  SolverControl control(problem_.solver.max_iterations,
+                        problem_.solver.relative_tolerance * system_rhs_.l2_norm());
+  TrilinosWrappers::SolverCG cg(control);
+  try {
+    cg.solve(system_matrix_, solution_, system_rhs_, amg);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("CG + Trilinos ML did not converge in " +
+                             std::to_string(control.last_step()) + " iterations: " + e.what());
+  }
+  constraints_.distribute(solution_);
+  ghosted_solution_ = solution_;
+  result_.solver_name = "CG + Trilinos ML AMG (translation near-null space)";
+  result_.solver_iterations = control.last_step();
+  result_.solver_residual = control.last_value();
+}
+
+void check_petsc(PetscErrorCode code, const char* what) {
+  if (code != 0) throw std::runtime_error(std::string("PETSc error in ") + what + ", code " + std::to_string(code));
+}
+
+/// PETSc: MUMPS LU, or CG + GAMG with the six rigid-body modes as near-null space. GAMG needs
+/// the nodal block size 3, which holds when deal.II numbers the three components of every
+/// support point consecutively (checked; otherwise the block size is left at 1).
+template <>
+void ElasticitySolver<PetscAlgebra>::solve() {
+  if (problem_.solver.solver == LinearSolver::direct_mumps) {
+    SolverControl control(1, 0);
+    PETScWrappers::SparseDirectMUMPS mumps(control, comm_);
+    mumps.set_symmetric_mode(false);
+    mumps.solve(system_matrix_, solution_, system_rhs_);
+    constraints_.distribute(solution_);
+    ghosted_solution_ = solution_;
+    result_.solver_name = "PETSc MUMPS sparse LU";
+    result_.solver_iterations = 1;
+    return;
+  }
+
+  const std::vector<types::global_dof_index> owned = [&] {
+    std::vector<types::global_dof_index> v;
+    for (const auto i : locally_owned_) v.push_back(i);
+    return v;
+  }();
+  std::map<types::global_dof_index, Point<dim>> support_points;
+  DoFTools::map_dofs_to_support_points(mapping_, dof_handler_, support_points);
+  const ComponentMask all(dim, true);
+  std::vector<IndexSet> component_dofs = DoFTools::locally_owned_dofs_per_component(dof_handler_, all);
+  bool blocked = owned.size() % dim == 0 && !owned.empty() && owned.front() % dim == 0;
+  for (std::size_t i = 0; blocked && i < owned.size(); ++i) {
+    const auto dof = owned[i];
+    blocked = component_dofs[dof % dim].is_element(dof) &&
+              support_points.at(dof).distance(support_points.at(dof - dof % dim)) < 1e-14;
+  }
+  blocked = Utilities::MPI::min(blocked ? 1 : 0, comm_) == 1;
+
+  Mat A = system_matrix_.petsc_matrix();
+  KSP ksp;
+  PC pc;
+  check_petsc(KSPCreate(comm_, &ksp), "KSPCreate");
+  check_petsc(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+  check_petsc(KSPSetType(ksp, KSPCG), "KSPSetType");
+  check_petsc(KSPGetPC(ksp, &pc), "KSPGetPC");
+  check_petsc(PCSetType(pc, PCGAMG), "PCSetType");
+  MatNullSpace near_null_space = nullptr;
+  if (blocked) {
+    check_petsc(MatSetBlockSize(A, dim), "MatSetBlockSize");
+    Vec coordinates;
+    check_petsc(VecCreateMPI(comm_, owned.size(), dof_handler_.n_dofs(), &coordinates), "VecCreateMPI");
+    check_petsc(VecSetBlockSize(coordinates, dim), "VecSetBlockSize");
+    PetscScalar* x;
+    check_petsc(VecGetArray(coordinates, &x), "VecGetArray");
+    for (std::size_t i = 0; i < owned.size(); ++i) x[i] = support_points.at(owned[i])[owned[i] % dim];
+    check_petsc(VecRestoreArray(coordinates, &x), "VecRestoreArray");
+    check_petsc(MatNullSpaceCreateRigidBody(coordinates, &near_null_space), "MatNullSpaceCreateRigidBody");
+    check_petsc(MatSetNearNullSpace(A, near_null_space), "MatSetNearNullSpace");
+    check_petsc(VecDestroy(&coordinates), "VecDestroy");
+  }
+  const double bnorm = system_rhs_.l2_norm();
+  check_petsc(KSPSetTolerances(ksp, problem_.solver.relative_tolerance, 0.0, PETSC_DEFAULT,
+                               problem_.solver.max_iterations),
+              "KSPSetTolerances");
+  check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
+  check_petsc(KSPSolve(ksp, system_rhs_, solution_), "KSPSolve");
+  KSPConvergedReason reason;
+  PetscInt iterations;
+  PetscReal residual;
+  KSPGetConvergedReason(ksp, &reason);
+  KSPGetIterationNumber(ksp, &iterations);
+  KSPGetResidualNorm(ksp, &residual);
+  if (near_null_space) MatNullSpaceDestroy(&near_null_space);
+  KSPDestroy(&ksp);
+  if (reason < 0)
+    throw std::runtime_error("CG + PETSc GAMG did not converge (reason " + std::to_string(reason) +
+                             ") after " + std::to_string(iterations) + " iterations, residual " +
+                             std::to_string(residual / std::max(bnorm, 1e-300)));
+  constraints_.distribute(solution_);
+  ghosted_solution_ = solution_;
+  result_.solver_name = std::string("CG + PETSc GAMG (") +
+                        (blocked ? "rigid-body near-null space, block size 3" : "scalar, no near-null space") + ")";
+  result_.solver_iterations = static_cast<unsigned int>(iterations);
+  result_.solver_residual = residual;
+}
+
+}  // namespace
+
+ElasticitySolution solve_elasticity(const ElasticityProblem& problem, MPI_Comm communicator) {
+  problem.validate();
+  if (problem.solver.solver == LinearSolver::cg_amg_trilinos)
+    return ElasticitySolver<TrilinosAlgebra>(problem, communicator).run();
+  return ElasticitySolver<PetscAlgebra>(problem, communicator).run();
+}
+
+struct MpiSession::Impl {
+  Impl(int& argc, char**& argv) : mpi(argc, argv, 1) {}
+  Utilities::MPI::MPI_InitFinalize mpi;
+};
+
+MpiSession::MpiSession(int& argc, char**& argv) : impl_(new Impl(argc, argv)) {}
+MpiSession::~MpiSession() { delete impl_; }
+unsigned int MpiSession::rank() { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
+unsigned int MpiSession::size() { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }
+void MpiSession::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
+
+}  // namespace touchstone::fem

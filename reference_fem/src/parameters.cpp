@@ -1,0 +1,80 @@
+// Validation of the parameter structs and their names in configs.
+#include "touchstone/fem/elasticity_problem.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace touchstone::fem {
+namespace {
+
+[[noreturn]] void reject(const std::string& field, double value, const std::string& rule) {
+  std::ostringstream message;
+  message << field << " = " << value << " " << rule;
+  throw std::invalid_argument(message.str());
+}
+
+}  // namespace
+
+void Material::validate() const {
+  if (!std::isfinite(youngs_modulus_Pa) || youngs_modulus_Pa <= 0)
+    reject("Material.youngs_modulus_Pa", youngs_modulus_Pa, "must be finite and > 0");
+  if (!std::isfinite(poisson_ratio) || poisson_ratio < 0 || poisson_ratio >= 0.5)
+    reject("Material.poisson_ratio", poisson_ratio, "must be in [0, 0.5)");
+}
+
+double Material::lame_lambda_Pa() const {
+  return youngs_modulus_Pa * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio));
+}
+
+double Material::shear_modulus_Pa() const { return youngs_modulus_Pa / (2 * (1 + poisson_ratio)); }
+
+void RigidPunch::validate() const {
+  if (!std::isfinite(depth_m) || depth_m <= 0) reject("RigidPunch.depth_m", depth_m, "must be finite and > 0");
+  if (!direction.allFinite() || direction.norm() < 1e-12)
+    throw std::invalid_argument("RigidPunch.direction must be a finite non-zero vector");
+}
+
+void SolverParameters::validate() const {
+  if (degree < 1 || degree > 2) reject("SolverParameters.degree", degree, "must be 1 or 2");
+  if (!(relative_tolerance > 0 && relative_tolerance < 1))
+    reject("SolverParameters.relative_tolerance", relative_tolerance, "must be in (0, 1)");
+  if (max_iterations < 1) reject("SolverParameters.max_iterations", max_iterations, "must be ≥ 1");
+}
+
+void ElasticityProblem::validate() const {
+  if (mesh_path.empty()) throw std::invalid_argument("ElasticityProblem.mesh_path is empty");
+  material.validate();
+  solver.validate();
+  if (punch) punch->validate();
+  for (const auto& condition : conditions)
+    if (!condition.value)
+      throw std::invalid_argument("ElasticityProblem: condition on '" + condition.boundary + "' has no value");
+  for (const auto& probe : probes)
+    if (!probe.allFinite()) throw std::invalid_argument("ElasticityProblem.probes: a probe point is not finite");
+}
+
+std::string to_string(LinearSolver solver) {
+  switch (solver) {
+    case LinearSolver::cg_amg_trilinos: return "cg_amg_trilinos";
+    case LinearSolver::cg_gamg_petsc: return "cg_gamg_petsc";
+    case LinearSolver::direct_mumps: return "direct_mumps";
+  }
+  return "unknown";
+}
+
+LinearSolver linear_solver_from_string(const std::string& name) {
+  for (auto s : {LinearSolver::cg_amg_trilinos, LinearSolver::cg_gamg_petsc, LinearSolver::direct_mumps})
+    if (to_string(s) == name) return s;
+  throw std::invalid_argument("unknown solver '" + name + "' (choose cg_amg_trilinos, cg_gamg_petsc, direct_mumps)");
+}
+
+std::string to_string(Contact contact) { return contact == Contact::bonded ? "bonded" : "frictionless"; }
+
+Contact contact_from_string(const std::string& name) {
+  if (name == "bonded") return Contact::bonded;
+  if (name == "frictionless") return Contact::frictionless;
+  throw std::invalid_argument("unknown contact '" + name + "' (choose frictionless, bonded)");
+}
+
+}  // namespace touchstone::fem

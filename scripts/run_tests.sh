@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The default test run on a fresh Debian 12 machine: install, build, run every test not
+# labelled "large" (ctest -L large runs those).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/install_deps.sh
+cmake --preset release >/dev/null
+cmake --build --preset release -j "$(nproc)"
+ctest --preset release -j "$(nproc)" "$@"

@@ -1,0 +1,51 @@
+#pragma once
+// Small gmsh meshes for the reference FEM tests, generated once per process into the test's
+// working folder.
+#include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/meshes/benchmark_geometry.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace touchstone::fem::testing {
+
+/// ctest runs the tests of one executable in parallel processes in one folder: a mesh file
+/// named after the running test is private to it, and the same on every MPI rank.
+inline std::string private_path(const std::string& name) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string test = info ? std::string(info->test_suite_name()) + "." + info->name() : "global";
+  for (char& c : test)
+    if (c == '/') c = '_';
+  return name + "-" + test + ".msh";
+}
+
+/// Unit cube [0,1]³ with element size h, faces x_min … z_max. Rank 0 writes, all ranks wait.
+inline std::string unit_cube_mesh(double h, const std::string& name) {
+  meshes::MeshParameters parameters;
+  parameters.benchmark = meshes::Benchmark::Box;
+  parameters.box_size_m = {1.0, 1.0, 1.0};
+  parameters.edge_size_m = h;
+  parameters.max_size_m = h;
+  const std::string path = private_path(name);
+  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
+  MpiSession::barrier();
+  return path;
+}
+
+/// A coarse B2 hemisphere (R = 50 mm, a = 5 mm) for punch tests.
+inline std::string coarse_hemisphere_mesh(const std::string& name) {
+  meshes::MeshParameters parameters;
+  parameters.benchmark = meshes::Benchmark::B2;
+  parameters.body_radius_m = 0.05;
+  parameters.tool_radius_m = 0.005;
+  parameters.edge_size_m = 0.0025;
+  parameters.size_growth = 0.5;
+  parameters.max_size_m = 0.02;
+  const std::string path = private_path(name);
+  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
+  MpiSession::barrier();
+  return path;
+}
+
+}  // namespace touchstone::fem::testing

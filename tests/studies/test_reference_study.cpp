@@ -1,0 +1,131 @@
+// `touchstone fem` end to end on a tiny B2 problem: the results.json contract of DESIGN.md §8,
+// the cache, and config errors that name the file and key.
+#include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/provenance.hpp"
+#include "touchstone/studies/reference_study.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace touchstone::studies {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* tiny_b2 = R"(
+study = "tiny_b2"
+[geometry]
+benchmark = "B2"
+body_radius = "50 mm"
+tool_radius = "5 mm"
+[mesh]
+edge_size = "2.5 mm"
+size_growth = 0.8
+max_size = "25 mm"
+refinements = [0, 1, 2]
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+depth = "0.5 mm"
+[solver]
+degree = 1
+)";
+
+ReferenceStudy tiny_study() {
+  ConfigTable config = ConfigTable::from_string(tiny_b2, "tiny_b2.toml");
+  return read_reference_study(config);
+}
+
+TEST(ReferenceStudy, ResultsJsonCarriesTheContract) {
+  RunOptions options;
+  options.output_directory = "reference_study_contract";
+  options.cache_directory = "";
+  options.config_text = tiny_b2;
+  options.quiet = true;
+  fs::remove_all(options.output_directory);
+  const nlohmann::json written = run_reference_study(tiny_study(), options);
+  const nlohmann::json document = nlohmann::json::parse(read_file(options.output_directory + "/results.json"));
+  EXPECT_EQ(document, written);
+
+  EXPECT_EQ(document.at("study"), "tiny_b2");
+  for (const char* key : {"git", "build_type", "compiler", "machine", "config_sha256"})
+    EXPECT_TRUE(document.at("provenance").contains(key)) << key;
+  EXPECT_EQ(document.at("provenance").at("config_sha256"), sha256_hex(tiny_b2));
+
+  // Three levels, the Richardson case and the half-space case.
+  const auto& cases = document.at("cases");
+  ASSERT_EQ(cases.size(), 5u);
+  for (const auto& c : cases) {
+    for (const char* key : {"id", "model", "params", "qoi", "error", "reference", "time_s", "status"})
+      EXPECT_TRUE(c.contains(key)) << c.value("id", "?") << " lacks " << key;
+    for (const char* key : {"force_N", "stiffness_N_per_m", "energy_J"}) EXPECT_TRUE(c.at("qoi").contains(key)) << key;
+    EXPECT_EQ(c.at("qoi").at("force_N").size(), 3u);
+    for (const char* key : {"force_rel", "disp_rel_l2", "disp_max_m"}) EXPECT_TRUE(c.at("error").contains(key)) << key;
+    for (const char* key : {"build", "solve", "total"}) EXPECT_TRUE(c.at("time_s").contains(key)) << key;
+  }
+  EXPECT_EQ(cases[0].at("model"), "fem");
+  EXPECT_EQ(cases[0].at("reference"), "B2-frictionless-nu0.45-R0.05-richardson");
+  EXPECT_EQ(cases[4].at("model"), "analytic");
+  // The stiffness is the force over the depth, and the energy check F·δ = 2U holds per level.
+  for (int level = 0; level < 3; ++level) {
+    const auto& qoi = cases[level].at("qoi");
+    EXPECT_NEAR(qoi.at("stiffness_N_per_m").get<double>() * 0.5e-3, qoi.at("axial_force_N").get<double>(), 1e-15);
+    EXPECT_NEAR(qoi.at("energy_force_N").get<double>(), qoi.at("axial_force_N").get<double>(),
+                1e-7 * qoi.at("axial_force_N").get<double>());
+    EXPECT_GT(qoi.at("probes").size(), 10u);
+  }
+  // Per-problem convergence summary with the observed order and the error estimates.
+  const auto& convergence = document.at("convergence").at(0);
+  for (const char* key : {"observed_order", "extrapolated_force_N", "finest_relative_error", "gci_finest",
+                          "extrapolated_relative_uncertainty", "ratio_to_half_space"})
+    EXPECT_TRUE(convergence.contains(key)) << key;
+  EXPECT_TRUE(fs::exists(options.output_directory + "/B2-frictionless-nu0.45-R0.05.pvd"));
+  EXPECT_TRUE(fs::exists(options.output_directory + "/" + cases[2].at("vtu").get<std::string>()));
+}
+
+TEST(ReferenceStudy, SecondRunComesFromTheCache) {
+  RunOptions options;
+  options.output_directory = "reference_study_cache_out";
+  options.cache_directory = "reference_study_cache";
+  options.config_text = tiny_b2;
+  options.quiet = true;
+  fs::remove_all(options.cache_directory);
+  const nlohmann::json first = run_reference_study(tiny_study(), options);
+  const nlohmann::json second = run_reference_study(tiny_study(), options);
+  for (int level = 0; level < 3; ++level) {
+    EXPECT_FALSE(first.at("cases")[level].at("cached").get<bool>());
+    EXPECT_TRUE(second.at("cases")[level].at("cached").get<bool>());
+    EXPECT_EQ(first.at("cases")[level].at("qoi"), second.at("cases")[level].at("qoi"));
+  }
+}
+
+TEST(ReferenceStudy, UnknownKeyIsNamed) {
+  ConfigTable misspelled = ConfigTable::from_string(
+      "study = \"x\"\n[geometry]\nbenchmark = \"B2\"\ntool_radus = \"2 mm\"\n", "misspelled.toml");
+  try {
+    read_reference_study(misspelled);
+    FAIL() << "expected an error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("misspelled.toml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("geometry.tool_radus"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ReferenceStudy, HalfSpaceClosedForms) {
+  const fem::Material material{10.0e3, 0.45};
+  // Sneddon: 2Eaδ/(1−ν²); Mossakovskii: 4Gaδ ln(3−4ν)/(1−2ν), G = E/(2(1+ν)).
+  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::frictionless),
+              2 * 10.0e3 * 2.5e-3 * 1e-4 / (1 - 0.45 * 0.45), 1e-15);
+  const double g = 10.0e3 / 2.9;
+  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::bonded),
+              4 * g * 2.5e-3 * 1e-4 * std::log(1.2) / 0.1, 1e-15);
+  // Bonded is stiffer than frictionless, and both agree at ν = 0.5 in the limit.
+  EXPECT_GT(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::bonded),
+            half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::frictionless));
+}
+
+}  // namespace
+}  // namespace touchstone::studies
