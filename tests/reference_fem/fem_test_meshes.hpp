@@ -24,7 +24,7 @@ inline std::string private_path(const std::string& name) {
 inline std::string unit_cube_mesh(double h, const std::string& name) {
   meshes::MeshParameters parameters;
   parameters.benchmark = meshes::Benchmark::Box;
-  parameters.box_size_m = {1.0, 1.0, 1.0};
+  parameters.box_size_m = {{1.0, 1.0, 1.0}};
   parameters.edge_size_m = h;
   parameters.max_size_m = h;
   const std::string path = private_path(name);
