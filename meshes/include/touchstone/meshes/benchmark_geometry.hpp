@@ -46,7 +46,7 @@ struct MeshParameters {
   double tool_radius_m = 0.0025;      ///< a, radius of the tool patch circle
   double local_radius_m = 0.0125;     ///< L (B3 only), radius of the ball around the pole
   double contact_polar_angle_rad = 0; ///< θ (B5 only), polar angle of the patch centre, 0 < θ < π/2
-  std::array<double, 3> box_size_m{1.0, 1.0, 1.0};  ///< Box only
+  std::array<double, 3> box_size_m{{1.0, 1.0, 1.0}};  ///< Box only
 
   /// Element size at the patch edge at refinement 0 [m]. Box: the uniform size.
   double edge_size_m = 0.0025 / 4;
