@@ -1,0 +1,88 @@
+// One MLS evaluation with values, gradients and Hessians (what a collocation row needs), for the
+// quadratic basis with ~30 and ~60 neighbours and the linear basis with ~15. Candidates are the
+// nodes within 1.3 r of the point, as a coarse neighbour search would give.
+
+#include "touchstone/realtime/mfs/mls_shape_functions.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace {
+
+using touchstone::realtime::mfs::Basis;
+using touchstone::realtime::mfs::Derivatives;
+using touchstone::realtime::mfs::evaluate_mls;
+using touchstone::realtime::mfs::MlsEvaluation;
+using touchstone::realtime::mfs::MlsSettings;
+using touchstone::realtime::mfs::MlsStatus;
+
+constexpr double h = 1e-3;  // node spacing [m]
+
+struct Scene {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<double> radii;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<int>> candidates;
+};
+
+/// Jittered 10³ lattice with radius c·h, c from the wanted mean neighbour count (4/3 π c³ ≈ n),
+/// and 64 random evaluation points in its interior.
+Scene make_scene(double neighbours) {
+  Scene scene;
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  constexpr double pi = 3.14159265358979323846;
+  const double radius = std::cbrt(3.0 * neighbours / (4.0 * pi)) * h;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      for (int k = 0; k < 10; ++k) {
+        scene.positions.push_back(h * Eigen::Vector3d(i + jitter(rng), j + jitter(rng), k + jitter(rng)));
+        scene.radii.push_back(radius);
+      }
+  std::uniform_real_distribution<double> inside(3.5 * h, 5.5 * h);
+  for (int p = 0; p < 64; ++p) {
+    const Eigen::Vector3d x(inside(rng), inside(rng), inside(rng));
+    scene.points.push_back(x);
+    std::vector<int> near;
+    for (int j = 0; j < static_cast<int>(scene.positions.size()); ++j)
+      if ((scene.positions[j] - x).norm() < 1.3 * radius) near.push_back(j);
+    scene.candidates.push_back(near);
+  }
+  return scene;
+}
+
+void evaluate(benchmark::State& state, Basis basis, double neighbours) {
+  const Scene scene = make_scene(neighbours);
+  const MlsSettings settings{basis};
+  MlsEvaluation result;
+  std::size_t point = 0;
+  double found = 0.0;
+  std::int64_t evaluations = 0;
+  for (auto _ : state) {
+    evaluate_mls(scene.points[point], scene.positions, scene.radii, scene.candidates[point], settings,
+                 Derivatives::hessians, result);
+    benchmark::DoNotOptimize(result.hessian.data());
+    if (result.status != MlsStatus::ok) {
+      state.SkipWithError("MLS evaluation failed");
+      break;
+    }
+    found += static_cast<double>(result.neighbours.size());
+    ++evaluations;
+    point = (point + 1) % scene.points.size();
+  }
+  state.counters["neighbours"] = evaluations > 0 ? found / static_cast<double>(evaluations) : 0.0;
+}
+
+void BM_mls_quadratic_30(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0); }
+void BM_mls_quadratic_60(benchmark::State& state) { evaluate(state, Basis::quadratic, 60.0); }
+void BM_mls_linear_15(benchmark::State& state) { evaluate(state, Basis::linear, 15.0); }
+
+BENCHMARK(BM_mls_quadratic_30);
+BENCHMARK(BM_mls_quadratic_60);
+BENCHMARK(BM_mls_linear_15);
+
+}  // namespace

@@ -1,0 +1,60 @@
+#pragma once
+/// @file
+/// Point collocation of linear elasticity with MLS shape functions: K U = f (paper eq. 6,
+/// DESIGN.md §4.2). Three rows per node (CollocationRow), 3N unknowns u_J (nodal parameters, not
+/// displacements: MLS does not interpolate).
+
+#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/realtime/mfs/node_cloud.hpp"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <vector>
+
+namespace touchstone::realtime::mfs {
+
+struct CollocationSettings {
+  MlsSettings mls;
+  /// Scale rows to displacement units before solving: Navier rows by s²/E, traction rows by
+  /// s/E (s = the node's spacing), Dirichlet rows by 1. Iterative solvers need it; LU does not
+  /// care, and the solution is the same.
+  bool scale_rows = true;
+};
+
+/// Why an assembly failed, with the node.
+struct AssemblyStatus {
+  MlsStatus mls = MlsStatus::ok;
+  int node = -1;       ///< first node whose shape functions failed
+  double min_rcond = 1;  ///< smallest rcond(A) over all collocation points
+  bool ok() const { return mls == MlsStatus::ok; }
+};
+
+/// K (3N × 3N, row-major sparse) and the right-hand side f = f₀ + G U_tool.
+struct CollocationSystem {
+  Eigen::SparseMatrix<double, Eigen::RowMajor> stiffness;
+  Eigen::VectorXd constant_rhs;          ///< f₀
+  Eigen::Matrix<double, Eigen::Dynamic, 3> tool_rhs;  ///< G
+  Eigen::VectorXd row_scale;             ///< the scaling applied to each row (1 when off)
+  AssemblyStatus status;
+};
+
+/// Assembles the collocation system of `cloud` for `material`. Nodes J contribute at x_I when
+/// |x_I − x_J| < r_J. Does not throw: a failed shape-function evaluation is reported in
+/// `status` (and the system is left empty).
+void assemble_collocation(const NodeCloud& cloud, const Material& material,
+                          const CollocationSettings& settings, CollocationSystem& system);
+
+/// u_h(x) = Σ_J h_J(x) u_J [m] from the nodal parameters U (3N), and ∇u_h (∂u_i/∂x_k) when
+/// `gradient` is given. Returns the MLS status; u is zero unless ok.
+MlsStatus evaluate_displacement(const NodeCloud& cloud, const Eigen::VectorXd& parameters,
+                                const Eigen::Vector3d& x, const MlsSettings& settings,
+                                MlsEvaluation& scratch, Eigen::Vector3d& u,
+                                Eigen::Matrix3d* gradient = nullptr) noexcept;
+
+/// Coefficients of one row with respect to u_J (3 numbers) given h_J, ∇h_J, ∇∇h_J at x_I.
+Eigen::Vector3d row_coefficients(const CollocationRow& row, const Eigen::Vector3d& normal,
+                                 double lambda, double mu, double shape_value,
+                                 const Eigen::Vector3d& gradient, const Eigen::Matrix3d& hessian) noexcept;
+
+}  // namespace touchstone::realtime::mfs

@@ -1,0 +1,59 @@
+#pragma once
+/// @file
+/// Local node sprinkling (paper §4, DESIGN.md §4.3): when the tool touches the organ, nodes are
+/// placed in the local domain Ω = organ ∩ ball(contact, L), each with a sphere of finite
+/// radius, and each node gets its collocation rows. Works on any closed triangle surface.
+
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/node_cloud.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+
+namespace touchstone::realtime::mfs {
+
+enum class Layout : std::uint8_t {
+  radial_shells,  ///< shells around the contact, spacing graded with distance (default)
+  quasi_random,   ///< Halton points, same graded spacing
+  lattice,        ///< a cubic lattice of uniform spacing
+};
+
+/// What holds the cut surface |x − c| = L.
+enum class OuterCondition : std::uint8_t {
+  clamped,         ///< u = 0 (default)
+  traction_free,   ///< σn = 0 (a floating local domain; needs the tool to hold it)
+};
+
+enum class PatchCondition : std::uint8_t {
+  frictionless,  ///< u·d = d·U_tool, tangential traction zero
+  bonded,        ///< u = U_tool
+};
+
+/// The tool where it touches: a rigid flat punch of radius a pressed along d.
+struct ToolContact {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< on the organ surface [m]
+  Eigen::Vector3d direction{0.0, 0.0, -1.0};        ///< unit push direction
+  double radius_m = 0.0025;                         ///< a
+  PatchCondition condition = PatchCondition::frictionless;
+};
+
+struct SprinklingSettings {
+  int node_count = 100;             ///< target N (the result is within a few per cent)
+  double local_radius_m = 0.0125;   ///< L
+  Layout layout = Layout::radial_shells;
+  int ring_nodes = 8;               ///< nodes on each patch ring (a/2 and a); plus the tip node
+  double radius_factor = 2.5;       ///< r_J = radius_factor × local spacing (interior)
+  double boundary_radius_factor = 3.0;  ///< r_J on the surface and the cut (one-sided supports)
+  OuterCondition outer = OuterCondition::clamped;
+  std::uint64_t seed = 1;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// Places the nodes and their rows. Deterministic for a seed. Throws std::invalid_argument on
+/// invalid settings or a contact point off the surface (by more than a/10).
+NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact,
+                         const SprinklingSettings& settings);
+
+}  // namespace touchstone::realtime::mfs

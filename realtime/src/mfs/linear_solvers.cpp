@@ -1,0 +1,117 @@
+#include "touchstone/realtime/mfs/linear_solvers.hpp"
+
+#include <Eigen/IterativeLinearSolvers>
+#include <algorithm>
+#include <cmath>
+#include <Eigen/LU>
+#include <Eigen/SparseLU>
+#include <unsupported/Eigen/IterativeSolvers>
+
+namespace touchstone::realtime::mfs {
+
+using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor>;
+
+struct CollocationSolver::Impl {
+  Eigen::PartialPivLU<Eigen::MatrixXd> dense;
+  Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> sparse;
+  Eigen::GMRES<ColMatrix, Eigen::IncompleteLUT<double>> gmres;
+  ColMatrix matrix;            // column-major copy: SparseLU and the ILUT want it
+  ColMatrix analysed_pattern;  // pattern of the last symbolic analysis
+  bool analysed = false;
+};
+
+CollocationSolver::CollocationSolver(SolverSettings settings) : settings_(settings), impl_(std::make_unique<Impl>()) {}
+CollocationSolver::~CollocationSolver() = default;
+CollocationSolver::CollocationSolver(CollocationSolver&&) noexcept = default;
+CollocationSolver& CollocationSolver::operator=(CollocationSolver&&) noexcept = default;
+
+namespace {
+
+bool same_pattern(const ColMatrix& a, const ColMatrix& b) {
+  if (a.rows() != b.rows() || a.cols() != b.cols() || a.nonZeros() != b.nonZeros()) return false;
+  for (Eigen::Index c = 0; c <= a.outerSize(); ++c)
+    if (a.outerIndexPtr()[c] != b.outerIndexPtr()[c]) return false;
+  return std::equal(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros(), b.innerIndexPtr());
+}
+
+}  // namespace
+
+SolveReport CollocationSolver::factorize(const RowMatrix& stiffness) {
+  SolveReport report;
+  Impl& s = *impl_;
+  s.matrix = stiffness;
+  s.matrix.makeCompressed();
+  for (Eigen::Index k = 0; k < s.matrix.nonZeros(); ++k)
+    if (!std::isfinite(s.matrix.valuePtr()[k])) return {false, 0, 0, "K has a non-finite entry"};
+  switch (settings_.kind) {
+    case SolverKind::dense_lu: {
+      s.dense.compute(Eigen::MatrixXd(s.matrix));
+      // PartialPivLU does not report singularity: a zero pivot shows as a non-finite rcond.
+      const double rcond = s.dense.rcond();
+      if (!(rcond > 1e-16)) return {false, 0, 0, "K is singular (dense LU rcond " + std::to_string(rcond) + ")"};
+      break;
+    }
+    case SolverKind::sparse_lu: {
+      if (!s.analysed || !same_pattern(s.matrix, s.analysed_pattern)) {
+        s.sparse.analyzePattern(s.matrix);
+        s.analysed_pattern = s.matrix;
+        s.analysed = true;
+      } else {
+        ++symbolic_reuses_;
+      }
+      s.sparse.factorize(s.matrix);
+      if (s.sparse.info() != Eigen::Success) return {false, 0, 0, "K is singular (sparse LU: " + s.sparse.lastErrorMessage() + ")"};
+      break;
+    }
+    case SolverKind::gmres_ilut: {
+      s.gmres.preconditioner().setDroptol(settings_.ilut_drop_tolerance);
+      s.gmres.preconditioner().setFillfactor(settings_.ilut_fill_factor);
+      s.gmres.set_restart(settings_.gmres_restart);
+      s.gmres.setTolerance(settings_.gmres_tolerance);
+      s.gmres.setMaxIterations(settings_.gmres_max_iterations);
+      s.gmres.compute(s.matrix);
+      if (s.gmres.info() != Eigen::Success) return {false, 0, 0, "incomplete LU of K failed"};
+      break;
+    }
+  }
+  return report;
+}
+
+SolveReport CollocationSolver::solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd& solution) const {
+  SolveReport report;
+  Impl& s = *impl_;
+  if (!rhs.allFinite()) return {false, 0, 0, "right-hand side is not finite"};
+  Eigen::MatrixXd x(rhs.rows(), rhs.cols());
+  switch (settings_.kind) {
+    case SolverKind::dense_lu: x = s.dense.solve(rhs); break;
+    case SolverKind::sparse_lu: x = s.sparse.solve(rhs); break;
+    case SolverKind::gmres_ilut:
+      for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
+        x.col(c) = s.gmres.solve(rhs.col(c));
+        report.iterations += static_cast<int>(s.gmres.iterations());
+        if (s.gmres.info() != Eigen::Success) {
+          report.ok = false;
+          report.failure = "GMRES did not converge in " + std::to_string(s.gmres.iterations()) +
+                           " iterations (estimated error " + std::to_string(s.gmres.error()) + ")";
+        }
+      }
+      break;
+  }
+  const double norm = rhs.norm();
+  report.relative_residual = norm > 0 ? (s.matrix * x - rhs).norm() / norm : (s.matrix * x).norm();
+  if (!x.allFinite()) return {false, report.iterations, report.relative_residual, "solution is not finite"};
+  if (report.ok) solution = std::move(x);
+  return report;
+}
+
+std::string to_string(SolverKind kind) {
+  switch (kind) {
+    case SolverKind::dense_lu: return "dense_lu";
+    case SolverKind::sparse_lu: return "sparse_lu";
+    case SolverKind::gmres_ilut: return "gmres_ilut";
+  }
+  return "unknown";
+}
+
+}  // namespace touchstone::realtime::mfs

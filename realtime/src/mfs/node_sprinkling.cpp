@@ -1,0 +1,321 @@
+#include "touchstone/realtime/mfs/node_sprinkling.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+/// Unit tangents (t1, t2) completing n to a right-handed frame.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> tangents(const Eigen::Vector3d& n) {
+  const Eigen::Vector3d helper = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = n.cross(helper).normalized();
+  return {t1, n.cross(t1)};
+}
+
+/// Points on the unit sphere, evenly spread (Fibonacci lattice), rotated by `rotation`.
+std::vector<Eigen::Vector3d> fibonacci_sphere(int count, const Eigen::Matrix3d& rotation) {
+  std::vector<Eigen::Vector3d> points;
+  const double golden = pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / count;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    points.push_back(rotation * Eigen::Vector3d(r * std::cos(golden * i), r * std::sin(golden * i), z));
+  }
+  return points;
+}
+
+double halton(int index, int base) {
+  double f = 1, r = 0;
+  for (int i = index; i > 0; i /= base) {
+    f /= base;
+    r += f * (i % base);
+  }
+  return r;
+}
+
+/// The graded spacing s(ρ) = max(s_min, g ρ): fine at the tool, coarse toward the cut.
+struct Spacing {
+  double minimum, growth;
+  double operator()(double rho) const { return std::max(minimum, growth * rho); }
+};
+
+class Sprinkler {
+ public:
+  Sprinkler(const geometry::TriangleSurface& organ, const ToolContact& contact, const SprinklingSettings& settings,
+            Spacing spacing)
+      : organ_(organ), contact_(contact), settings_(settings), spacing_(spacing), random_(settings.seed) {}
+
+  NodeCloud run() {
+    const geometry::SurfaceProjection at_contact = organ_.project(contact_.point);
+    centre_ = at_contact.point;
+    normal_ = at_contact.normal;
+    place_patch();
+    if (settings_.layout == Layout::lattice) {
+      place_lattice();
+    } else {
+      place_surface();
+      place_cut();
+      place_interior();
+    }
+    return finish();
+  }
+
+ private:
+  struct Candidate {
+    Eigen::Vector3d x;
+    NodeKind kind;
+    Eigen::Vector3d normal;
+  };
+
+  double rho(const Eigen::Vector3d& x) const { return (x - centre_).norm(); }
+
+  bool far_from_accepted(const Eigen::Vector3d& x, double min_distance) const {
+    for (const auto& node : nodes_)
+      if ((node.x - x).squaredNorm() < min_distance * min_distance) return false;
+    return true;
+  }
+
+  void accept(const Eigen::Vector3d& x, NodeKind kind, const Eigen::Vector3d& normal) { nodes_.push_back({x, kind, normal}); }
+
+  /// Tip node and two rings (a/2, a) on the tangent plane, projected onto the surface.
+  void place_patch() {
+    const double a = contact_.radius_m;
+    accept(centre_, NodeKind::tool_patch, normal_);
+    const auto [t1, t2] = tangents(normal_);
+    for (const double ring : {0.5 * a, a}) {
+      const double offset = ring == a ? pi / settings_.ring_nodes : 0.0;  // stagger the rings
+      for (int k = 0; k < settings_.ring_nodes; ++k) {
+        const double angle = 2 * pi * k / settings_.ring_nodes + offset;
+        const geometry::SurfaceProjection p =
+            organ_.project(centre_ + ring * (std::cos(angle) * t1 + std::sin(angle) * t2));
+        accept(p.point, NodeKind::tool_patch, p.normal);
+      }
+    }
+  }
+
+  /// Area-weighted random points of the triangles inside the ball, nearest first, thinned to
+  /// the graded spacing.
+  void place_surface() {
+    const double length = settings_.local_radius_m;
+    const auto& v = organ_.vertices();
+    std::vector<std::pair<int, double>> triangles;  // index, cumulative area
+    double total = 0;
+    for (int t = 0; t < static_cast<int>(organ_.triangles().size()); ++t) {
+      const Eigen::Vector3i& tri = organ_.triangles()[t];
+      const double nearest = std::min({rho(v[tri[0]]), rho(v[tri[1]]), rho(v[tri[2]])});
+      const double longest = std::max({(v[tri[0]] - v[tri[1]]).norm(), (v[tri[1]] - v[tri[2]]).norm(),
+                                       (v[tri[2]] - v[tri[0]]).norm()});
+      if (nearest > length + longest) continue;
+      total += 0.5 * (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]).norm();
+      triangles.push_back({t, total});
+    }
+    if (triangles.empty()) return;
+    // Enough samples that the finest spacing near the patch is resolved.
+    const double finest = spacing_(contact_.radius_m);
+    const int samples = static_cast<int>(std::min(2.0e5, 8 * total / (finest * finest) + 100));
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<Candidate> candidates;
+    for (int s = 0; s < samples; ++s) {
+      const double pick = unit(random_) * total;
+      const auto it = std::lower_bound(triangles.begin(), triangles.end(), pick,
+                                       [](const auto& entry, double value) { return entry.second < value; });
+      const Eigen::Vector3i& tri = organ_.triangles()[it->first];
+      double b1 = unit(random_), b2 = unit(random_);
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      const Eigen::Vector3d x = v[tri[0]] + b1 * (v[tri[1]] - v[tri[0]]) + b2 * (v[tri[2]] - v[tri[0]]);
+      const double r = rho(x);
+      if (r <= contact_.radius_m + 0.5 * spacing_(r) || r >= length - 0.5 * spacing_(length)) continue;
+      const geometry::SurfaceProjection p = organ_.project(x);
+      candidates.push_back({p.point, NodeKind::free_surface, p.normal});
+    }
+    thin_nearest_first(candidates, 0.8);
+  }
+
+  /// The cut sphere |x − c| = L inside the organ, away from the surface.
+  void place_cut() {
+    const double length = settings_.local_radius_m, s = spacing_(length);
+    const int count = static_cast<int>(std::ceil(4 * pi * length * length / (s * s)));
+    std::vector<Candidate> candidates;
+    for (const Eigen::Vector3d& direction : fibonacci_sphere(count, random_rotation())) {
+      const Eigen::Vector3d x = centre_ + length * direction;
+      if (organ_.signed_distance(x) > -0.5 * s) continue;
+      candidates.push_back({x, NodeKind::cut, direction});
+    }
+    thin_nearest_first(candidates, 0.8);
+  }
+
+  /// Shells (or Halton points) strictly inside Ω, away from the surface and the cut.
+  void place_interior() {
+    const double length = settings_.local_radius_m;
+    std::vector<Candidate> candidates;
+    const auto consider = [&](const Eigen::Vector3d& x) {
+      const double r = rho(x), s = spacing_(r);
+      if (r > length - 0.5 * s) return;
+      if (organ_.signed_distance(x) > -0.5 * s) return;
+      candidates.push_back({x, NodeKind::interior, Eigen::Vector3d::Zero()});
+    };
+    if (settings_.layout == Layout::radial_shells) {
+      for (double r = 0.5 * spacing_(0.0); r < length;) {
+        const double s = spacing_(r);
+        const int count = std::max(4, static_cast<int>(std::ceil(4 * pi * r * r / (s * s))));
+        for (const Eigen::Vector3d& direction : fibonacci_sphere(count, random_rotation())) consider(centre_ + r * direction);
+        r += spacing_(r + 0.5 * s);
+      }
+    } else {
+      const int count = 40 * settings_.node_count;
+      for (int i = 1; i <= count; ++i) {
+        const Eigen::Vector3d u(halton(i, 2), halton(i, 3), halton(i, 5));
+        consider(centre_ + length * (2 * u - Eigen::Vector3d::Ones()));
+      }
+    }
+    thin_nearest_first(candidates, 0.8);
+  }
+
+  /// A uniform lattice aligned with the contact frame: surface and cut nodes by projection.
+  void place_lattice() {
+    const double length = settings_.local_radius_m, h = spacing_.minimum;
+    const auto [t1, t2] = tangents(normal_);
+    const int n = static_cast<int>(std::ceil(length / h));
+    std::vector<Candidate> candidates;
+    for (int i = -n; i <= n; ++i)
+      for (int j = -n; j <= n; ++j)
+        for (int k = -n; k <= 0; ++k) {
+          const Eigen::Vector3d x = centre_ + h * (i * t1 + j * t2 + k * normal_);
+          const double r = rho(x), distance = organ_.signed_distance(x);
+          if (r > length + 0.5 * h || distance > 0.5 * h) continue;
+          if (r > length - 0.5 * h) {
+            if (distance < -0.5 * h) candidates.push_back({centre_ + length * (x - centre_).normalized(), NodeKind::cut, (x - centre_).normalized()});
+          } else if (distance > -0.5 * h) {
+            const geometry::SurfaceProjection p = organ_.project(x);
+            if (rho(p.point) > contact_.radius_m + 0.5 * h) candidates.push_back({p.point, NodeKind::free_surface, p.normal});
+          } else {
+            candidates.push_back({x, NodeKind::interior, Eigen::Vector3d::Zero()});
+          }
+        }
+    thin_nearest_first(candidates, 0.7);
+  }
+
+  void thin_nearest_first(std::vector<Candidate>& candidates, double fraction) {
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [&](const Candidate& a, const Candidate& b) { return rho(a.x) < rho(b.x); });
+    for (const Candidate& c : candidates) {
+      const double s = settings_.layout == Layout::lattice ? spacing_.minimum : spacing_(rho(c.x));
+      if (far_from_accepted(c.x, fraction * s)) accept(c.x, c.kind, c.normal);
+    }
+  }
+
+  Eigen::Matrix3d random_rotation() {
+    std::normal_distribution<double> gauss;
+    Eigen::Quaterniond q(gauss(random_), gauss(random_), gauss(random_), gauss(random_));
+    return q.normalized().toRotationMatrix();
+  }
+
+  NodeCloud finish() const {
+    NodeCloud cloud;
+    const Eigen::Vector3d d = contact_.direction.normalized();
+    for (const Candidate& node : nodes_) {
+      const double s = settings_.layout == Layout::lattice ? spacing_.minimum : spacing_(rho(node.x));
+      const bool boundary = node.kind != NodeKind::interior;
+      cloud.positions.push_back(node.x);
+      cloud.kinds.push_back(node.kind);
+      cloud.normals.push_back(node.normal);
+      cloud.spacing.push_back(s);
+      cloud.radii.push_back((boundary ? settings_.boundary_radius_factor : settings_.radius_factor) * s);
+      cloud.rows.push_back(rows_for(node, d));
+    }
+    return cloud;
+  }
+
+  std::array<CollocationRow, 3> rows_for(const Candidate& node, const Eigen::Vector3d& d) const {
+    using Type = CollocationRow::Type;
+    std::array<CollocationRow, 3> rows;
+    const auto along_axes = [&](Type type, bool tool) {
+      for (int k = 0; k < 3; ++k) {
+        rows[k].type = type;
+        rows[k].direction = Eigen::Vector3d::Unit(k);
+        if (tool) rows[k].tool = Eigen::Vector3d::Unit(k);
+      }
+    };
+    switch (node.kind) {
+      case NodeKind::interior: along_axes(Type::navier, false); break;
+      case NodeKind::free_surface: along_axes(Type::traction, false); break;
+      case NodeKind::cut:
+        along_axes(settings_.outer == OuterCondition::clamped ? Type::dirichlet : Type::traction, false);
+        break;
+      case NodeKind::tool_patch:
+        if (contact_.condition == PatchCondition::bonded) {
+          along_axes(Type::dirichlet, true);
+        } else {
+          const auto [t1, t2] = tangents(d);
+          rows[0] = {Type::dirichlet, d, 0.0, d};
+          rows[1] = {Type::traction, t1, 0.0, Eigen::Vector3d::Zero()};
+          rows[2] = {Type::traction, t2, 0.0, Eigen::Vector3d::Zero()};
+        }
+        break;
+    }
+    return rows;
+  }
+
+  const geometry::TriangleSurface& organ_;
+  const ToolContact& contact_;
+  const SprinklingSettings& settings_;
+  Spacing spacing_;
+  std::mt19937_64 random_;
+  Eigen::Vector3d centre_, normal_;
+  std::vector<Candidate> nodes_;
+};
+
+}  // namespace
+
+void SprinklingSettings::validate() const {
+  const auto reject = [](const std::string& field, double value, const std::string& rule) {
+    throw std::invalid_argument("SprinklingSettings." + field + " = " + std::to_string(value) + " " + rule);
+  };
+  if (node_count < 20 || node_count > 20000) reject("node_count", node_count, "must be in [20, 20000]");
+  if (!(local_radius_m > 0) || !std::isfinite(local_radius_m)) reject("local_radius_m", local_radius_m, "must be > 0");
+  if (ring_nodes < 3 || ring_nodes > 64) reject("ring_nodes", ring_nodes, "must be in [3, 64]");
+  if (!(radius_factor >= 1.2 && radius_factor <= 6)) reject("radius_factor", radius_factor, "must be in [1.2, 6]");
+  if (!(boundary_radius_factor >= 1.2 && boundary_radius_factor <= 8))
+    reject("boundary_radius_factor", boundary_radius_factor, "must be in [1.2, 8]");
+}
+
+NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact,
+                         const SprinklingSettings& settings) {
+  settings.validate();
+  if (!contact.point.allFinite() || !contact.direction.allFinite() || contact.direction.norm() < 1e-12)
+    throw std::invalid_argument("ToolContact: point and direction must be finite, direction non-zero");
+  if (!(contact.radius_m > 0) || !(contact.radius_m < 0.5 * settings.local_radius_m))
+    throw std::invalid_argument("ToolContact.radius_m = " + std::to_string(contact.radius_m) +
+                                " must be in (0, L/2) with L = " + std::to_string(settings.local_radius_m));
+  if (organ.project(contact.point).distance_m > 0.1 * contact.radius_m)
+    throw std::invalid_argument("ToolContact.point is not on the organ surface (distance " +
+                                std::to_string(organ.project(contact.point).distance_m) + " m)");
+
+  // The growth g of the spacing decides N: bisect on it (the count falls as g grows).
+  const double minimum = 0.5 * contact.radius_m;
+  double low = 0.05, high = 2.0;
+  NodeCloud best;
+  for (int iteration = 0; iteration < 24; ++iteration) {
+    const double growth = std::sqrt(low * high);
+    // The lattice has one spacing h = 0.2 g L; the graded layouts s(ρ) = max(a/2, g ρ).
+    const Spacing spacing = settings.layout == Layout::lattice ? Spacing{0.2 * growth * settings.local_radius_m, 0.0}
+                                                               : Spacing{minimum, growth};
+    NodeCloud cloud = Sprinkler(organ, contact, settings, spacing).run();
+    const int count = static_cast<int>(cloud.size());
+    if (best.size() == 0 || std::abs(count - settings.node_count) < std::abs(static_cast<int>(best.size()) - settings.node_count))
+      best = std::move(cloud);
+    if (std::abs(count - settings.node_count) <= settings.node_count / 20) break;
+    (count > settings.node_count ? low : high) = growth;
+  }
+  return best;
+}
+
+}  // namespace touchstone::realtime::mfs

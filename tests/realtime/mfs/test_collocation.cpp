@@ -1,0 +1,193 @@
+// Point collocation (paper eq. 6) on a box cloud: an affine field is reproduced exactly with
+// either basis (patch test, Dirichlet and traction boundaries), a quadratic field with its
+// body force is exact with the quadratic basis, and the linear basis shows the O(1) error of
+// DESIGN.md §1.2. All three solvers agree.
+#include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/linear_solvers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double side_m = 0.01;  // a 10 mm cube: physical sizes, so units matter
+
+/// Field given as u(x), ∇u(x) (∂u_i/∂x_k) and the body force b = −div σ(u).
+struct Field {
+  std::function<Eigen::Vector3d(const Eigen::Vector3d&)> u;
+  std::function<Eigen::Matrix3d(const Eigen::Vector3d&)> gradient;
+  Eigen::Vector3d body_force = Eigen::Vector3d::Zero();
+};
+
+Eigen::Vector3d traction(const Material& m, const Eigen::Matrix3d& gradient, const Eigen::Vector3d& n) {
+  const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
+  return (m.lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * strain) * n;
+}
+
+/// A jittered lattice of n³ nodes on the cube. Faces x = max and z = max carry traction rows
+/// (unless the node is on an edge), every other boundary node Dirichlet rows; interior nodes
+/// Navier rows. Support radius = factor × spacing.
+NodeCloud box_cloud(int n, double factor, const Field& field, const Material& m, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> jitter(-0.2, 0.2);
+  const double h = side_m / (n - 1);
+  NodeCloud cloud;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k) {
+        const int index[3] = {i, j, k};
+        Eigen::Vector3d x;
+        int faces = 0;
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        for (int d = 0; d < 3; ++d) {
+          const bool low = index[d] == 0, high = index[d] == n - 1;
+          x[d] = index[d] * h + ((low || high) ? 0.0 : jitter(random) * h);
+          if (low || high) {
+            ++faces;
+            normal[d] = high ? 1.0 : -1.0;
+          }
+        }
+        std::array<CollocationRow, 3> rows;
+        NodeKind kind = NodeKind::interior;
+        const bool traction_face = faces == 1 && (normal[0] > 0 || normal[2] > 0);
+        for (int d = 0; d < 3; ++d) {
+          rows[d].direction = Eigen::Vector3d::Unit(d);
+          if (faces == 0) {
+            rows[d].type = CollocationRow::Type::navier;
+            rows[d].value = -field.body_force[d];
+          } else if (traction_face) {
+            kind = NodeKind::free_surface;
+            rows[d].type = CollocationRow::Type::traction;
+            rows[d].value = traction(m, field.gradient(x), normal)[d];
+          } else {
+            kind = NodeKind::cut;
+            rows[d].type = CollocationRow::Type::dirichlet;
+            rows[d].value = field.u(x)[d];
+          }
+        }
+        cloud.positions.push_back(x);
+        cloud.radii.push_back(factor * h);
+        cloud.kinds.push_back(kind);
+        cloud.normals.push_back(faces > 0 ? normal.normalized() : Eigen::Vector3d::Zero());
+        cloud.rows.push_back(rows);
+        cloud.spacing.push_back(h);
+      }
+  return cloud;
+}
+
+/// Max |u_h − u| over random points, relative to max |u|.
+double solve_and_measure(const NodeCloud& cloud, const Material& m, const Field& field, Basis basis, SolverKind solver) {
+  CollocationSettings settings;
+  settings.mls.basis = basis;
+  CollocationSystem system;
+  assemble_collocation(cloud, m, settings, system);
+  EXPECT_TRUE(system.status.ok()) << "node " << system.status.node;
+  CollocationSolver linear(SolverSettings{solver});
+  const SolveReport factorised = linear.factorize(system.stiffness);
+  EXPECT_TRUE(factorised.ok) << factorised.failure;
+  Eigen::MatrixXd parameters;
+  const SolveReport solved = linear.solve(system.constant_rhs, parameters);
+  EXPECT_TRUE(solved.ok) << solved.failure;
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(0.05, 0.95);
+  MlsEvaluation scratch;
+  double error = 0, scale = 0;
+  for (int p = 0; p < 200; ++p) {
+    const Eigen::Vector3d x = side_m * Eigen::Vector3d(unit(random), unit(random), unit(random));
+    Eigen::Vector3d u;
+    EXPECT_EQ(evaluate_displacement(cloud, parameters.col(0), x, settings.mls, scratch, u), MlsStatus::ok);
+    error = std::max(error, (u - field.u(x)).norm());
+    scale = std::max(scale, field.u(x).norm());
+  }
+  return error / scale;
+}
+
+Field affine_field() {
+  Eigen::Matrix3d g;
+  g << 1.0e-2, 2.0e-3, -3.0e-3, 5.0e-3, -2.0e-2, 1.0e-3, -4.0e-3, 3.0e-3, 1.5e-2;
+  const Eigen::Vector3d c(1.0e-5, -2.0e-5, 3.0e-5);
+  return {[g, c](const Eigen::Vector3d& x) { return Eigen::Vector3d(g * x + c); },
+          [g](const Eigen::Vector3d&) { return g; }, Eigen::Vector3d::Zero()};
+}
+
+/// u = s (x², y²/2 + xz/4, yz): ∇u linear, body force constant.
+Field quadratic_field(const Material& m) {
+  const double s = 1.0;  // [1/m]
+  Field f;
+  f.u = [s](const Eigen::Vector3d& x) {
+    return Eigen::Vector3d(s * x[0] * x[0], s * (0.5 * x[1] * x[1] + 0.25 * x[0] * x[2]), s * x[1] * x[2]);
+  };
+  f.gradient = [s](const Eigen::Vector3d& x) {
+    Eigen::Matrix3d g;
+    g << 2 * x[0], 0, 0, 0.25 * x[2], x[1], 0.25 * x[0], 0, x[2], x[1];
+    return Eigen::Matrix3d(s * g);
+  };
+  // ∇²u = s(2, 1, 0); ∇(div u) = ∇(2x + y + y)s = s(2, 2, 0).
+  const Eigen::Vector3d laplacian = s * Eigen::Vector3d(2, 1, 0), grad_div = s * Eigen::Vector3d(2, 2, 0);
+  f.body_force = -(m.mu_Pa() * laplacian + (m.lambda_Pa() + m.mu_Pa()) * grad_div);
+  return f;
+}
+
+class PatchTest : public ::testing::TestWithParam<std::tuple<Basis, SolverKind>> {};
+
+TEST_P(PatchTest, AffineFieldIsReproducedExactly) {
+  const auto [basis, solver] = GetParam();
+  const Material m{10.0e3, 0.45};
+  const Field field = affine_field();
+  const NodeCloud cloud = box_cloud(6, 2.6, field, m, 3);
+  EXPECT_LT(solve_and_measure(cloud, m, field, basis, solver), 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    BasesAndSolvers, PatchTest,
+    ::testing::Combine(::testing::Values(Basis::linear, Basis::quadratic),
+                       ::testing::Values(SolverKind::dense_lu, SolverKind::sparse_lu, SolverKind::gmres_ilut)));
+
+TEST(QuadraticField, IsExactWithTheQuadraticBasis) {
+  const Material m{10.0e3, 0.45};
+  const Field field = quadratic_field(m);
+  const NodeCloud cloud = box_cloud(6, 2.6, field, m, 5);
+  EXPECT_LT(solve_and_measure(cloud, m, field, Basis::quadratic, SolverKind::sparse_lu), 1e-9);
+}
+
+// DESIGN.md §1.2: with the linear basis the MLS second derivatives of a quadratic field are
+// wrong by O(1) at fixed support factor, so the Navier rows are inconsistent: the same field
+// that the quadratic basis reproduces to 1e-9 is missed by per cents (measured: 46 % with 6³
+// nodes, 12 % with 9³ nodes on this box; the MLS test shows the Laplacian error itself).
+TEST(QuadraticField, LinearBasisIsInconsistent) {
+  const Material m{10.0e3, 0.45};
+  const Field field = quadratic_field(m);
+  for (const int n : {6, 9}) {
+    const double error = solve_and_measure(box_cloud(n, 2.6, field, m, 5), m, field, Basis::linear, SolverKind::sparse_lu);
+    std::printf("  linear basis, quadratic field, %d^3 nodes: relative error %.3e\n", n, error);
+    EXPECT_GT(error, 1e-2) << n << "^3 nodes";
+  }
+}
+
+TEST(CollocationSolver, SymbolicAnalysisIsReusedWhenOnlyValuesChange) {
+  const Field field = affine_field();
+  const Material soft{10.0e3, 0.45}, stiff{30.0e3, 0.3};
+  CollocationSettings settings;
+  CollocationSystem a, b;
+  assemble_collocation(box_cloud(5, 2.6, field, soft, 1), soft, settings, a);
+  assemble_collocation(box_cloud(5, 2.6, field, stiff, 1), stiff, settings, b);
+  CollocationSolver solver;
+  ASSERT_TRUE(solver.factorize(a.stiffness).ok);
+  ASSERT_TRUE(solver.factorize(b.stiffness).ok);
+  EXPECT_EQ(solver.symbolic_reuses(), 1);
+}
+
+TEST(CollocationSolver, SingularMatrixIsReportedNotSolved) {
+  Eigen::SparseMatrix<double, Eigen::RowMajor> zero(6, 6);
+  for (const auto kind : {SolverKind::dense_lu, SolverKind::sparse_lu}) {
+    CollocationSolver solver(SolverSettings{kind});
+    const SolveReport report = solver.factorize(zero);
+    EXPECT_FALSE(report.ok) << to_string(kind);
+    EXPECT_FALSE(report.failure.empty());
+  }
+}
+
+}  // namespace
+}  // namespace touchstone::realtime::mfs

@@ -1,0 +1,159 @@
+// Node sprinkling on a real closed surface (the gmsh B2 hemisphere): counts, placement of each
+// node kind, determinism, bad input; and the tool-patch quadrature.
+#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/realtime/mfs/node_sprinkling.hpp"
+#include "touchstone/realtime/mfs/tool_force.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double radius_m = 0.05, tool_radius_m = 0.0025;
+
+const geometry::TriangleSurface& hemisphere() {
+  static const geometry::TriangleSurface surface = [] {
+    meshes::MeshParameters g;
+    g.benchmark = meshes::Benchmark::B2;
+    g.edge_size_m = 0.0005;
+    g.size_growth = 0.3;
+    g.max_size_m = 0.004;
+    meshes::generate_mesh(g, "sprinkling_hemisphere.msh");
+    return geometry::TriangleSurface::from_msh("sprinkling_hemisphere.msh");
+  }();
+  return surface;
+}
+
+ToolContact pole_contact() {
+  ToolContact contact;
+  contact.point = {0.0, 0.0, radius_m};
+  contact.radius_m = tool_radius_m;
+  return contact;
+}
+
+class Sprinkling : public ::testing::TestWithParam<Layout> {};
+
+TEST_P(Sprinkling, NodesSitWhereTheirKindSays) {
+  SprinklingSettings settings;
+  settings.layout = GetParam();
+  settings.node_count = 150;
+  settings.local_radius_m = 5 * tool_radius_m;
+  const NodeCloud cloud = sprinkle_nodes(hemisphere(), pole_contact(), settings);
+  // Distances are measured from the contact point on the faceted surface.
+  const Eigen::Vector3d centre = hemisphere().project(pole_contact().point).point;
+  EXPECT_NEAR(static_cast<double>(cloud.size()), settings.node_count, 0.25 * settings.node_count);
+  int counts[4] = {0, 0, 0, 0};
+  for (std::size_t j = 0; j < cloud.size(); ++j) {
+    const Eigen::Vector3d& x = cloud.positions[j];
+    const double rho = (x - centre).norm(), on_sphere = std::abs(x.norm() - radius_m);
+    ++counts[static_cast<int>(cloud.kinds[j])];
+    EXPECT_GT(cloud.radii[j], 0);
+    EXPECT_LE(rho, settings.local_radius_m * (1 + 1e-9));
+    switch (cloud.kinds[j]) {
+      case NodeKind::tool_patch:
+        EXPECT_LT(rho, tool_radius_m * 1.01);
+        EXPECT_LT(on_sphere, 1e-4);  // on the faceted surface
+        break;
+      case NodeKind::free_surface:
+        EXPECT_GT(rho, tool_radius_m);
+        EXPECT_LT(on_sphere, 1e-4);
+        EXPECT_NEAR(cloud.normals[j].dot(x.normalized()), 1.0, 0.02);
+        break;
+      case NodeKind::cut: EXPECT_NEAR(rho, settings.local_radius_m, 1e-9); break;
+      case NodeKind::interior:
+        EXPECT_LT(x.norm(), radius_m - 1e-5);
+        EXPECT_TRUE(hemisphere().contains(x));
+        break;
+    }
+  }
+  EXPECT_EQ(counts[static_cast<int>(NodeKind::tool_patch)], 1 + 2 * settings.ring_nodes);
+  for (int kind = 0; kind < 4; ++kind) EXPECT_GT(counts[kind], 0) << "kind " << kind;
+}
+
+INSTANTIATE_TEST_SUITE_P(Layouts, Sprinkling,
+                         ::testing::Values(Layout::radial_shells, Layout::quasi_random, Layout::lattice));
+
+TEST(Sprinkling, IsDeterministicForASeed) {
+  SprinklingSettings settings;
+  settings.node_count = 80;
+  const NodeCloud a = sprinkle_nodes(hemisphere(), pole_contact(), settings);
+  const NodeCloud b = sprinkle_nodes(hemisphere(), pole_contact(), settings);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t j = 0; j < a.size(); ++j) EXPECT_EQ(a.positions[j], b.positions[j]);
+  settings.seed = 2;
+  const NodeCloud c = sprinkle_nodes(hemisphere(), pole_contact(), settings);
+  bool differs = c.size() != a.size();
+  for (std::size_t j = 0; !differs && j < a.size(); ++j) differs = a.positions[j] != c.positions[j];
+  EXPECT_TRUE(differs);
+}
+
+TEST(Sprinkling, RowsFollowTheContactCondition) {
+  SprinklingSettings settings;
+  settings.node_count = 60;
+  ToolContact contact = pole_contact();
+  contact.condition = PatchCondition::frictionless;
+  const NodeCloud frictionless = sprinkle_nodes(hemisphere(), contact, settings);
+  // Tip node: u·d prescribed through the tool column, two tangential traction rows.
+  EXPECT_EQ(frictionless.rows[0][0].type, CollocationRow::Type::dirichlet);
+  EXPECT_EQ(frictionless.rows[0][0].tool, contact.direction);
+  EXPECT_EQ(frictionless.rows[0][1].type, CollocationRow::Type::traction);
+  EXPECT_NEAR(frictionless.rows[0][1].direction.dot(contact.direction), 0.0, 1e-15);
+  contact.condition = PatchCondition::bonded;
+  const NodeCloud bonded = sprinkle_nodes(hemisphere(), contact, settings);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(bonded.rows[0][k].tool, Eigen::Vector3d::Unit(k));
+}
+
+TEST(Sprinkling, BadInputIsNamed) {
+  SprinklingSettings settings;
+  settings.node_count = 5;
+  EXPECT_THROW(sprinkle_nodes(hemisphere(), pole_contact(), settings), std::invalid_argument);
+  settings = SprinklingSettings{};
+  ToolContact off_surface = pole_contact();
+  off_surface.point.z() += 0.01;
+  try {
+    sprinkle_nodes(hemisphere(), off_surface, settings);
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ToolContact.point"), std::string::npos) << e.what();
+  }
+  ToolContact nan_direction = pole_contact();
+  nan_direction.direction.x() = std::nan("");
+  EXPECT_THROW(sprinkle_nodes(hemisphere(), nan_direction, settings), std::invalid_argument);
+}
+
+/// A flat-topped organ (B1: cylinder, top face z = 0) so that the patch is a plane disk.
+const geometry::TriangleSurface& cylinder() {
+  static const geometry::TriangleSurface surface = [] {
+    meshes::MeshParameters g;
+    g.benchmark = meshes::Benchmark::B1;
+    g.body_radius_m = 0.02;
+    g.edge_size_m = 0.0005;
+    g.size_growth = 0.3;
+    g.max_size_m = 0.004;
+    meshes::generate_mesh(g, "sprinkling_cylinder.msh");
+    return geometry::TriangleSurface::from_msh("sprinkling_cylinder.msh");
+  }();
+  return surface;
+}
+
+// The weights integrate the patch area πa², and the flat-punch pressure profile
+// (a² − r²)^(−1/2), singular at the edge, to 2πa: the r = a sin φ rule absorbs the singularity.
+TEST(PatchQuadrature, IntegratesTheSingularPunchPressure) {
+  ToolContact contact;
+  contact.point = Eigen::Vector3d::Zero();
+  contact.radius_m = tool_radius_m;
+  const PatchQuadrature q = patch_quadrature(cylinder(), contact);
+  double area = 0, singular = 0;
+  for (std::size_t p = 0; p < q.points.size(); ++p) {
+    area += q.weights[p];
+    singular += q.weights[p] / std::sqrt(tool_radius_m * tool_radius_m - q.points[p].head<2>().squaredNorm());
+    EXPECT_NEAR(q.normals[p].z(), 1.0, 1e-12);
+  }
+  EXPECT_NEAR(area, M_PI * tool_radius_m * tool_radius_m, 1e-12 * area);
+  EXPECT_NEAR(singular, 2 * M_PI * tool_radius_m, 1e-10 * singular);
+}
+
+}  // namespace
+}  // namespace touchstone::realtime::mfs
