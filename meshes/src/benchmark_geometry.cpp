@@ -468,7 +468,7 @@ void add_physical_groups(const Classified& classified, ScriptedModel& model) {
                            group_name(boundary_tags::tissue));
 }
 
-/// Size field h(x) = min(max, edge + growth · a · (d(x)/a)^β) / 2^refinement, d = distance to the patch
+/// Size field h(x) = min(max, edge + growth · a · g(d(x)/a)) / 2^refinement (g: MeshParameters), d = distance to the patch
 /// edge; the Box gets the uniform size edge / 2^refinement. Then the mesh options, so that the
 /// recorded script meshes exactly as generate_mesh does.
 void set_mesh_options(const Shape& shape, const Classified& classified, ScriptedModel& model) {
@@ -491,13 +491,17 @@ void set_mesh_options(const Shape& shape, const Classified& classified, Scripted
       model.set_field_number(distance, "NNodesByEdge", samples);  // its name before gmsh 4.9
     }
     size = model.add_field("MathEval");
-    // growth · a · (d/a)^β: β = 1 is linear grading; β < 1 grades harder toward the edge.
+    // growth · a · g(d/a): g(t) = t for β = 1 (linear grading); for β < 1, g(t) = t^β up to
+    // t₀ = power_grading_extent (harder grading where the r^(1/2) singularity lives) and its
+    // tangent line beyond, so that large domains (B1) are not filled with small elements.
     const std::string d = "F" + std::to_string(distance);
+    const std::string t = "(" + d + " / " + number(p.tool_radius_m) + ")";
+    const double t0 = p.power_grading_extent, beta = p.size_exponent;
     const std::string graded =
-        p.size_exponent == 1.0
-            ? number(p.size_growth) + " * " + d
-            : number(p.size_growth * p.tool_radius_m) + " * (" + d + " / " + number(p.tool_radius_m) + ")^" +
-                  number(p.size_exponent);
+        beta == 1.0 ? number(p.size_growth) + " * " + d
+                    : number(p.size_growth * p.tool_radius_m) + " * (min(" + t + ", " + number(t0) + ")^" +
+                          number(beta) + " + " + number(beta * std::pow(t0, beta - 1)) + " * max(" + t + " - " +
+                          number(t0) + ", 0))";
     model.set_field_string(size, "F",
                            "min(" + number(p.max_size_m) + ", " + number(p.edge_size_m) + " + " + graded +
                                ") / " + number(scale));
@@ -741,6 +745,9 @@ void MeshParameters::validate() const {
   require_positive("size_growth", size_growth);
   if (!(size_exponent >= 0.25 && size_exponent <= 1.0)) {
     reject("size_exponent", size_exponent, "must be in [0.25, 1]");
+  }
+  if (!(power_grading_extent >= 1.0)) {
+    reject("power_grading_extent", power_grading_extent, "must be >= 1");
   }
   if (!(tool_radius_m < body_radius_m / 2)) {
     reject("tool_radius_m", tool_radius_m,

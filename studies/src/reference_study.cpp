@@ -78,6 +78,7 @@ json geometry_json(const meshes::MeshParameters& g) {
           {"edge_size_m", g.edge_size_m},
           {"size_growth", g.size_growth},
           {"size_exponent", g.size_exponent},
+          {"power_grading_extent", g.power_grading_extent},
           {"max_size_m", g.max_size_m},
           {"refinement", g.refinement}};
 }

@@ -18,6 +18,7 @@ meshes::MeshParameters read_geometry(ConfigTable& geometry, ConfigTable& mesh) {
   g.contact_polar_angle_rad = geometry.quantity("contact_polar_angle", Dimension::angle, 0.0);
   g.size_growth = mesh.number("size_growth", g.size_growth);
   g.size_exponent = mesh.number("size_exponent", 0.75);
+  g.power_grading_extent = mesh.number("power_grading_extent", g.power_grading_extent);
   // B3's cut sphere is faceted by the largest elements: keep them well below L.
   const double default_max = g.benchmark == meshes::Benchmark::B3 ? std::min(g.body_radius_m / 5, g.local_radius_m / 8)
                                                                   : g.body_radius_m / 5;

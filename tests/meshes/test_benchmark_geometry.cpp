@@ -294,6 +294,9 @@ TEST(Validate, RejectsBadValuesNamingTheField) {
       {"max_size_m", [](MeshParameters& p) { p.max_size_m = -0.01; }},
       {"max_size_m", [](MeshParameters& p) { p.max_size_m = p.edge_size_m / 2; }},
       {"size_growth", [](MeshParameters& p) { p.size_growth = 0; }},
+      {"size_exponent", [](MeshParameters& p) { p.size_exponent = 1.5; }},
+      {"size_exponent", [nan](MeshParameters& p) { p.size_exponent = nan; }},
+      {"power_grading_extent", [](MeshParameters& p) { p.power_grading_extent = 0.5; }},
       {"refinement", [](MeshParameters& p) { p.refinement = 7; }},
       {"refinement", [](MeshParameters& p) { p.refinement = -1; }},
       {"local_radius_m",
@@ -516,6 +519,24 @@ TEST(WriteGeometryScript, WritesGeoUnrolledWithPhysicalGroups) {
   EXPECT_NE(text.str().find("Physical Surface(\"tool_patch\", 2)"), std::string::npos);
   EXPECT_NE(text.str().find("Physical Volume(\"tissue\", 100)"), std::string::npos);
   EXPECT_NE(text.str().find("Background Field"), std::string::npos);
+}
+
+// Beyond one tool radius the power law h ∝ d^β (β < 1) grows slower than the linear law with
+// the same growth, so the mesh has more elements; its tangent continuation beyond t₀ radii
+// grows linearly again and fills the far field with fewer.
+TEST(SizeField, PowerGradingGrowsSlowerAndItsExtentCoarsensTheFarField) {
+  MeshParameters p;
+  p.benchmark = Benchmark::B2;
+  p.edge_size_m = p.tool_radius_m / 8;
+  p.size_growth = 0.5;
+  p.max_size_m = 0.01;
+  const MeshSummary linear = generate_mesh(p, output_path("grading_linear.msh"));
+  p.size_exponent = 0.75;
+  const MeshSummary power = generate_mesh(p, output_path("grading_power.msh"));
+  p.power_grading_extent = 2;
+  const MeshSummary tangent = generate_mesh(p, output_path("grading_tangent.msh"));
+  EXPECT_GT(power.tetrahedron_count, linear.tetrahedron_count);
+  EXPECT_LT(tangent.tetrahedron_count, power.tetrahedron_count);
 }
 
 }  // namespace

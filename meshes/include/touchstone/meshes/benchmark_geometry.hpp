@@ -53,10 +53,14 @@ struct MeshParameters {
   /// Growth of the element size with distance d from the patch edge:
   /// h(d) = min(max_size_m, edge_size_m + size_growth · d) at refinement 0 (dimensionless).
   double size_growth = 0.5;
-  /// Grading exponent β: h(d) = min(max_size_m, edge_size_m + size_growth · a · (d/a)^β).
-  /// β = 1 is the linear law above; β < 1 concentrates elements at the singular edge
-  /// (β ≈ 1 − λ/p = 3/4 suits the r^(1/2) edge singularity with P2 elements).
+  /// Grading exponent β: h(d) = min(max_size_m, edge_size_m + size_growth · a · g(d/a)) with
+  /// g(t) = t^β for t ≤ t₀ and its tangent line beyond (t₀ = power_grading_extent). β = 1 is
+  /// the linear law above; β < 1 concentrates elements at the singular edge (β ≈ 1 − λ/p = 3/4
+  /// suits the r^(1/2) edge singularity with P2 elements).
   double size_exponent = 1.0;
+  /// t₀ [tool radii]: beyond this distance from the edge the size grows linearly. Large (the
+  /// default) keeps the power law everywhere; a few radii keep large domains affordable.
+  double power_grading_extent = 1.0e6;
   /// Largest element size at refinement 0 [m].
   double max_size_m = 0.01;
   /// Each refinement level halves every size (edge, growth law, max): h → h / 2^refinement.
