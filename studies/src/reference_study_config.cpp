@@ -71,7 +71,7 @@ ReferenceStudy read_reference_study(ConfigTable& config) {
   try {
     study.validate();
   } catch (const std::invalid_argument& e) {
-    throw ConfigError(config.where("") + " " + e.what());
+    throw ConfigError(config.where("") + e.what());
   }
   return study;
 }
