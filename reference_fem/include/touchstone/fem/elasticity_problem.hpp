@@ -108,7 +108,7 @@ struct ElasticitySolution {
   unsigned int solver_iterations = 0;
   double solver_residual = 0;  ///< final residual norm reported by the solver
 
-  /// Wall times [s] on rank 0 (every phase ends with a barrier-free local measurement).
+  /// Wall times [s] of this rank's part of each phase (the runner reports rank 0's).
   double read_mesh_s = 0, setup_s = 0, assembly_s = 0, solve_s = 0, postprocess_s = 0, output_s = 0;
   std::string vtu_file;  ///< the .pvtu written, if any
 };
