@@ -16,7 +16,8 @@ struct CollocationSolver::Impl {
   Eigen::PartialPivLU<Eigen::MatrixXd> dense;
   Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> sparse;
   Eigen::GMRES<ColMatrix, Eigen::IncompleteLUT<double>> gmres;
-  ColMatrix matrix;            // column-major copy: SparseLU and the ILUT want it
+  ColMatrix matrix;            // the square matrix factorised (column-major: SparseLU and ILUT want it)
+  ColMatrix rectangular;       // K when it has more rows than columns (matrix = KᵀK then)
   ColMatrix analysed_pattern;  // pattern of the last symbolic analysis
   bool analysed = false;
 };
@@ -40,10 +41,22 @@ bool same_pattern(const ColMatrix& a, const ColMatrix& b) {
 SolveReport CollocationSolver::factorize(const RowMatrix& stiffness) {
   SolveReport report;
   Impl& s = *impl_;
-  s.matrix = stiffness;
+  if (stiffness.rows() < stiffness.cols() || stiffness.cols() == 0)
+    return {false, 0, 0, "K is " + std::to_string(stiffness.rows()) + " x " + std::to_string(stiffness.cols()) +
+                             ": fewer equations than unknowns"};
+  for (Eigen::Index k = 0; k < stiffness.nonZeros(); ++k)
+    if (!std::isfinite(stiffness.valuePtr()[k])) return {false, 0, 0, "K has a non-finite entry"};
+  if (stiffness.rows() > stiffness.cols()) {
+    // Least-squares collocation: the normal equations KᵀK U = Kᵀf (KᵀK is SPD when K has full
+    // column rank; the LU solvers do not need the symmetry).
+    s.rectangular = stiffness;
+    s.rectangular.makeCompressed();
+    s.matrix = ColMatrix(s.rectangular.transpose()) * s.rectangular;
+  } else {
+    s.rectangular.resize(0, 0);
+    s.matrix = stiffness;
+  }
   s.matrix.makeCompressed();
-  for (Eigen::Index k = 0; k < s.matrix.nonZeros(); ++k)
-    if (!std::isfinite(s.matrix.valuePtr()[k])) return {false, 0, 0, "K has a non-finite entry"};
   switch (settings_.kind) {
     case SolverKind::dense_lu: {
       s.dense.compute(Eigen::MatrixXd(s.matrix));
@@ -82,13 +95,19 @@ SolveReport CollocationSolver::solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd
   SolveReport report;
   Impl& s = *impl_;
   if (!rhs.allFinite()) return {false, 0, 0, "right-hand side is not finite"};
-  Eigen::MatrixXd x(rhs.rows(), rhs.cols());
+  const bool least_squares = s.rectangular.rows() > 0;
+  const Eigen::Index expected_rows = least_squares ? s.rectangular.rows() : s.matrix.rows();
+  if (rhs.rows() != expected_rows || s.matrix.rows() == 0)
+    return {false, 0, 0, "right-hand side has " + std::to_string(rhs.rows()) + " rows, K has " + std::to_string(expected_rows)};
+  const Eigen::MatrixXd projected = least_squares ? Eigen::MatrixXd(s.rectangular.transpose() * rhs) : Eigen::MatrixXd();
+  const Eigen::MatrixXd& b = least_squares ? projected : rhs;
+  Eigen::MatrixXd x(s.matrix.cols(), rhs.cols());
   switch (settings_.kind) {
-    case SolverKind::dense_lu: x = s.dense.solve(rhs); break;
-    case SolverKind::sparse_lu: x = s.sparse.solve(rhs); break;
+    case SolverKind::dense_lu: x = s.dense.solve(b); break;
+    case SolverKind::sparse_lu: x = s.sparse.solve(b); break;
     case SolverKind::gmres_ilut:
-      for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
-        x.col(c) = s.gmres.solve(rhs.col(c));
+      for (Eigen::Index c = 0; c < b.cols(); ++c) {
+        x.col(c) = s.gmres.solve(b.col(c));
         report.iterations += static_cast<int>(s.gmres.iterations());
         if (s.gmres.info() != Eigen::Success) {
           report.ok = false;
@@ -98,8 +117,12 @@ SolveReport CollocationSolver::solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd
       }
       break;
   }
-  const double norm = rhs.norm();
-  report.relative_residual = norm > 0 ? (s.matrix * x - rhs).norm() / norm : (s.matrix * x).norm();
+  const double norm = b.norm();
+  report.relative_residual = norm > 0 ? (s.matrix * x - b).norm() / norm : (s.matrix * x).norm();
+  if (least_squares) {
+    const double f_norm = rhs.norm();
+    report.least_squares_residual = f_norm > 0 ? (s.rectangular * x - rhs).norm() / f_norm : 0.0;
+  }
   if (!x.allFinite()) return {false, report.iterations, report.relative_residual, "solution is not finite"};
   if (report.ok) solution = std::move(x);
   return report;

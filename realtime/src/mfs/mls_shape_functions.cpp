@@ -163,7 +163,7 @@ double norm_1(const Eigen::Matrix<double, M, M>& a) noexcept {
 template <int M>
 MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& positions,
                          const std::vector<double>& radii, const std::vector<int>& candidates,
-                         const MlsSettings& settings, Derivatives derivatives,
+                         const MlsSettings& settings, double radius_scale, Derivatives derivatives,
                          MlsEvaluation& result) noexcept {
   using Mat = Eigen::Matrix<double, M, M>;
   const bool want_gradients = derivatives != Derivatives::values;
@@ -184,7 +184,7 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
     }
     const Eigen::Vector3d delta = positions[j] - x;
     const double d = delta.norm();
-    const double r = radii[j];
+    const double r = radius_scale * radii[j];
     if (!(d < r)) {
       continue;
     }
@@ -337,15 +337,26 @@ void evaluate_mls(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& 
                   const std::vector<double>& radii, const std::vector<int>& candidates,
                   const MlsSettings& settings, Derivatives derivatives, MlsEvaluation& result) noexcept {
   result.rcond = 0.0;
+  result.support_scale = 1.0;
   result.neighbours.clear();
   clear_outputs(result);
   if (!x.allFinite()) {
     result.status = MlsStatus::non_finite_input;
     return;
   }
-  result.status = settings.basis == Basis::linear
-                      ? evaluate_fixed<4>(x, positions, radii, candidates, settings, derivatives, result)
-                      : evaluate_fixed<10>(x, positions, radii, candidates, settings, derivatives, result);
+  // Growth factors 1, 1.2, 1.2², … within the bound; the last one tried always fits it.
+  constexpr double growth = 1.2;
+  const double bound = std::isfinite(settings.max_support_scale) ? std::max(1.0, settings.max_support_scale) : 1.0;
+  for (double scale = 1.0;; scale = std::min(scale * growth, bound)) {
+    result.support_scale = scale;
+    result.rcond = 0.0;
+    result.neighbours.clear();
+    clear_outputs(result);
+    result.status = settings.basis == Basis::linear
+                        ? evaluate_fixed<4>(x, positions, radii, candidates, settings, scale, derivatives, result)
+                        : evaluate_fixed<10>(x, positions, radii, candidates, settings, scale, derivatives, result);
+    if (result.status == MlsStatus::ok || result.status == MlsStatus::non_finite_input || scale >= bound) break;
+  }
   if (result.status != MlsStatus::ok) {
     clear_outputs(result);
   }

@@ -42,6 +42,7 @@ double halton(int index, int base) {
 }
 
 /// The graded spacing s(ρ) = max(s_min, g ρ): fine at the tool, coarse toward the cut.
+/// s_min = g a, so refining (smaller g) refines the patch and its singular edge too.
 struct Spacing {
   double minimum, growth;
   double operator()(double rho) const { return std::max(minimum, growth * rho); }
@@ -85,20 +86,30 @@ class Sprinkler {
 
   void accept(const Eigen::Vector3d& x, NodeKind kind, const Eigen::Vector3d& normal) { nodes_.push_back({x, kind, normal}); }
 
-  /// Tip node and two rings (a/2, a) on the tangent plane, projected onto the surface.
+  /// Tip node and rings on the tangent plane, projected onto the surface: n_r = max(2, ⌈a/s⌉)
+  /// rings at radii a k/n_r (the last on the patch edge), each with at least `ring_nodes` nodes
+  /// and about one per spacing s = s(a) along it, staggered ring to ring.
   void place_patch() {
-    const double a = contact_.radius_m;
+    const double a = contact_.radius_m, s = patch_spacing();
     accept(centre_, NodeKind::tool_patch, normal_);
+    if (settings_.tip_node_only) return;
     const auto [t1, t2] = tangents(normal_);
-    for (const double ring : {0.5 * a, a}) {
-      const double offset = ring == a ? pi / settings_.ring_nodes : 0.0;  // stagger the rings
-      for (int k = 0; k < settings_.ring_nodes; ++k) {
-        const double angle = 2 * pi * k / settings_.ring_nodes + offset;
+    const int ring_count = std::max(2, static_cast<int>(std::ceil(a / s - 1e-9)));
+    for (int k = 1; k <= ring_count; ++k) {
+      const double ring = a * k / ring_count;
+      const int count = std::max(settings_.ring_nodes, static_cast<int>(std::lround(2 * pi * ring / s)));
+      const double offset = (k % 2) * pi / count;
+      for (int j = 0; j < count; ++j) {
+        const double angle = 2 * pi * j / count + offset;
         const geometry::SurfaceProjection p =
             organ_.project(centre_ + ring * (std::cos(angle) * t1 + std::sin(angle) * t2));
         accept(p.point, NodeKind::tool_patch, p.normal);
       }
     }
+  }
+
+  double patch_spacing() const {
+    return settings_.layout == Layout::lattice ? spacing_.minimum : spacing_(contact_.radius_m);
   }
 
   /// Area-weighted random points of the triangles inside the ball, nearest first, thinned to
@@ -132,7 +143,8 @@ class Sprinkler {
       if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
       const Eigen::Vector3d x = v[tri[0]] + b1 * (v[tri[1]] - v[tri[0]]) + b2 * (v[tri[2]] - v[tri[0]]);
       const double r = rho(x);
-      if (r <= contact_.radius_m + 0.5 * spacing_(r) || r >= length - 0.5 * spacing_(length)) continue;
+      const double patch = settings_.tip_node_only ? 0.0 : contact_.radius_m;
+      if (r <= patch + 0.5 * spacing_(r) || r >= length - 0.5 * spacing_(length)) continue;
       const geometry::SurfaceProjection p = organ_.project(x);
       candidates.push_back({p.point, NodeKind::free_surface, p.normal});
     }
@@ -195,7 +207,7 @@ class Sprinkler {
             if (distance < -0.5 * h) candidates.push_back({centre_ + length * (x - centre_).normalized(), NodeKind::cut, (x - centre_).normalized()});
           } else if (distance > -0.5 * h) {
             const geometry::SurfaceProjection p = organ_.project(x);
-            if (rho(p.point) > contact_.radius_m + 0.5 * h) candidates.push_back({p.point, NodeKind::free_surface, p.normal});
+            if (rho(p.point) > (settings_.tip_node_only ? 0.0 : contact_.radius_m) + 0.5 * h) candidates.push_back({p.point, NodeKind::free_surface, p.normal});
           } else {
             candidates.push_back({x, NodeKind::interior, Eigen::Vector3d::Zero()});
           }
@@ -251,7 +263,9 @@ class Sprinkler {
         along_axes(settings_.outer == OuterCondition::clamped ? Type::dirichlet : Type::traction, false);
         break;
       case NodeKind::tool_patch:
-        if (contact_.condition == PatchCondition::bonded) {
+        if (settings_.tip_node_only) {
+          along_axes(Type::traction, false);
+        } else if (contact_.condition == PatchCondition::bonded) {
           along_axes(Type::dirichlet, true);
         } else {
           const auto [t1, t2] = tangents(d);
@@ -283,6 +297,7 @@ void SprinklingSettings::validate() const {
   if (!(local_radius_m > 0) || !std::isfinite(local_radius_m)) reject("local_radius_m", local_radius_m, "must be > 0");
   if (ring_nodes < 3 || ring_nodes > 64) reject("ring_nodes", ring_nodes, "must be in [3, 64]");
   if (!(radius_factor >= 1.2 && radius_factor <= 6)) reject("radius_factor", radius_factor, "must be in [1.2, 6]");
+  if (!(oversampling >= 1 && oversampling <= 16)) reject("oversampling", oversampling, "must be in [1, 16]");
   if (!(boundary_radius_factor >= 1.2 && boundary_radius_factor <= 8))
     reject("boundary_radius_factor", boundary_radius_factor, "must be in [1.2, 8]");
 }
@@ -300,20 +315,43 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
                                 std::to_string(organ.project(contact.point).distance_m) + " m)");
 
   // The growth g of the spacing decides N: bisect on it (the count falls as g grows).
-  const double minimum = 0.5 * contact.radius_m;
-  double low = 0.05, high = 2.0;
+  const auto spacing_for = [&](double growth) {
+    // The lattice has one spacing h = 0.2 g L; the graded layouts s(ρ) = g max(a, ρ).
+    return settings.layout == Layout::lattice ? Spacing{0.2 * growth * settings.local_radius_m, 0.0}
+                                              : Spacing{growth * contact.radius_m, growth};
+  };
+  double low = 0.05, high = 2.0, best_growth = high;
   NodeCloud best;
   for (int iteration = 0; iteration < 24; ++iteration) {
     const double growth = std::sqrt(low * high);
-    // The lattice has one spacing h = 0.2 g L; the graded layouts s(ρ) = max(a/2, g ρ).
-    const Spacing spacing = settings.layout == Layout::lattice ? Spacing{0.2 * growth * settings.local_radius_m, 0.0}
-                                                               : Spacing{minimum, growth};
-    NodeCloud cloud = Sprinkler(organ, contact, settings, spacing).run();
+    NodeCloud cloud = Sprinkler(organ, contact, settings, spacing_for(growth)).run();
     const int count = static_cast<int>(cloud.size());
-    if (best.size() == 0 || std::abs(count - settings.node_count) < std::abs(static_cast<int>(best.size()) - settings.node_count))
+    if (best.size() == 0 || std::abs(count - settings.node_count) < std::abs(static_cast<int>(best.size()) - settings.node_count)) {
       best = std::move(cloud);
+      best_growth = growth;
+    }
     if (std::abs(count - settings.node_count) <= settings.node_count / 20) break;
     (count > settings.node_count ? low : high) = growth;
+  }
+  if (settings.oversampling > 1) {
+    // Least-squares collocation: the same sprinkling at spacing s / oversampling^(1/3) gives
+    // about `oversampling` times as many points; those that do not sit on a node are extra
+    // collocation points.
+    const double shrink = std::cbrt(settings.oversampling);
+    Spacing dense = spacing_for(best_growth);
+    dense.minimum /= shrink;
+    dense.growth /= shrink;
+    SprinklingSettings dense_settings = settings;
+    dense_settings.seed = settings.seed + 1;
+    const NodeCloud points = Sprinkler(organ, contact, dense_settings, dense).run();
+    for (std::size_t p = 0; p < points.size(); ++p) {
+      const bool on_a_node = std::any_of(best.positions.begin(), best.positions.end(), [&](const Eigen::Vector3d& x) {
+        return (x - points.positions[p]).norm() < 0.35 * points.spacing[p];
+      });
+      if (on_a_node) continue;
+      best.extra_points.push_back({points.positions[p], points.kinds[p], points.normals[p], points.spacing[p],
+                                   Eigen::Vector3d::Zero(), points.rows[p]});
+    }
   }
   return best;
 }

@@ -32,7 +32,128 @@ void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
   }
 }
 
+/// The contact frame: the projected contact point, the outward normal there and two tangents.
+struct ContactFrame {
+  Eigen::Vector3d centre, normal, t1, t2;
+};
+
+ContactFrame contact_frame(const geometry::TriangleSurface& organ, const ToolContact& contact) {
+  const geometry::SurfaceProjection p = organ.project(contact.point);
+  const Eigen::Vector3d helper = std::abs(p.normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = p.normal.cross(helper).normalized();
+  return {p.point, p.normal, t1, p.normal.cross(t1)};
+}
+
+/// Unit direction at polar angle θ from the inward normal −n and azimuth φ.
+Eigen::Vector3d direction(const ContactFrame& f, double theta, double phi) {
+  return -std::cos(theta) * f.normal + std::sin(theta) * (std::cos(phi) * f.t1 + std::sin(phi) * f.t2);
+}
+
+/// The largest t ∈ [0, t_max] such that inside(s) holds for all s ∈ (0, t], when inside holds
+/// near 0: marching in `steps`, then bisection to ~1e-9 of t_max. 0 if it fails at once.
+template <class Inside>
+double first_exit(Inside inside, double t_max, int steps = 64) {
+  double low = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const double t = t_max * k / steps;
+    if (inside(t)) {
+      low = t;
+      continue;
+    }
+    double high = t;
+    for (int i = 0; i < 40 && high - low > 1e-9 * t_max; ++i) {
+      const double mid = 0.5 * (low + high);
+      (inside(mid) ? low : high) = mid;
+    }
+    return low;
+  }
+  return t_max;
+}
+
 }  // namespace
+
+PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                               int polar_points, int azimuth_points) {
+  PatchQuadrature q;
+  const ContactFrame f = contact_frame(organ, contact);
+  const double length = local_radius_m;
+  std::vector<double> x, w;
+  gauss_legendre(polar_points, x, w);
+  for (int k = 0; k < azimuth_points; ++k) {
+    const double phi = 2 * pi * (k + 0.5) / azimuth_points;
+    const double theta_max = first_exit(
+        [&](double theta) { return organ.signed_distance(f.centre + length * direction(f, theta, phi)) < 0; }, pi, 128);
+    for (int i = 0; i < polar_points; ++i) {
+      const double theta = theta_max * x[i];
+      const Eigen::Vector3d d = direction(f, theta, phi);
+      q.points.push_back(f.centre + length * d);
+      q.normals.push_back(d);
+      q.weights.push_back(length * length * std::sin(theta) * theta_max * w[i] * 2 * pi / azimuth_points);
+    }
+  }
+  return q;
+}
+
+PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                                  int radial_points, int polar_points, int azimuth_points) {
+  PatchQuadrature q;
+  const ContactFrame f = contact_frame(organ, contact);
+  const double length = local_radius_m;
+  std::vector<double> xr, wr, xt, wt;
+  gauss_legendre(radial_points, xr, wr);
+  gauss_legendre(polar_points, xt, wt);
+  for (int k = 0; k < azimuth_points; ++k) {
+    const double phi = 2 * pi * (k + 0.5) / azimuth_points;
+    for (int j = 0; j < polar_points; ++j) {
+      const double theta = pi * xt[j];
+      const Eigen::Vector3d d = direction(f, theta, phi);
+      const double reach = first_exit(
+          [&](double rho) { return organ.signed_distance(f.centre + rho * d) < 0; }, length, 64);
+      if (reach <= 0) continue;
+      for (int i = 0; i < radial_points; ++i) {
+        const double rho = reach * xr[i];
+        q.points.push_back(f.centre + rho * d);
+        q.normals.push_back(Eigen::Vector3d::Zero());
+        q.weights.push_back(rho * rho * reach * wr[i] * std::sin(theta) * pi * wt[j] * 2 * pi / azimuth_points);
+      }
+    }
+  }
+  return q;
+}
+
+bool strain_energy(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+                   const PatchQuadrature& volume, const Eigen::VectorXd& parameters, double& energy_J) {
+  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  MlsEvaluation scratch;
+  double energy = 0;
+  for (std::size_t p = 0; p < volume.points.size(); ++p) {
+    Eigen::Vector3d u;
+    Eigen::Matrix3d gradient;
+    if (evaluate_displacement(cloud, parameters, volume.points[p], mls, scratch, u, &gradient) != MlsStatus::ok) return false;
+    const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
+    // ½ σ:ε = ½ (λ (tr ε)² + 2μ ε:ε)
+    energy += volume.weights[p] * 0.5 * (lambda * strain.trace() * strain.trace() + 2 * mu * strain.squaredNorm());
+  }
+  if (!std::isfinite(energy)) return false;
+  energy_J = energy;
+  return true;
+}
+
+std::vector<double> tributary_areas(const NodeCloud& cloud, const PatchQuadrature& patch) {
+  std::vector<int> patch_nodes;
+  for (std::size_t j = 0; j < cloud.size(); ++j)
+    if (cloud.kinds[j] == NodeKind::tool_patch) patch_nodes.push_back(static_cast<int>(j));
+  std::vector<double> area(cloud.size(), 0.0);
+  if (patch_nodes.empty()) return area;
+  for (std::size_t p = 0; p < patch.points.size(); ++p) {
+    int nearest = patch_nodes.front();
+    for (const int j : patch_nodes)
+      if ((cloud.positions[j] - patch.points[p]).squaredNorm() < (cloud.positions[nearest] - patch.points[p]).squaredNorm())
+        nearest = j;
+    area[nearest] += patch.weights[p];
+  }
+  return area;
+}
 
 PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact,
                                  int radial_points, int angular_points) {
@@ -62,6 +183,11 @@ PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const T
 
 bool traction_force_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
                         const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
+  return surface_traction_map(cloud, material, mls, quadrature, map);
+}
+
+bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+                          const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
   const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
   map.setZero(3, 3 * static_cast<Eigen::Index>(cloud.size()));
   MlsEvaluation evaluation;

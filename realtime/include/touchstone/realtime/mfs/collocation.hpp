@@ -20,17 +20,28 @@ struct CollocationSettings {
   /// s/E (s = the node's spacing), Dirichlet rows by 1. Iterative solvers need it; LU does not
   /// care, and the solution is the same.
   bool scale_rows = true;
+  /// Finite-increment-calculus stabilisation of the traction (Neumann) rows (Oñate, Perazzo &
+  /// Miquel 2001): each traction row becomes e·(σn − β s (div σ + b)) = e·t̄, the balance of a
+  /// boundary layer of thickness β s (s = the node's spacing) instead of a point. Consistent
+  /// (the exact solution satisfies it for any β); β = 0 is plain collocation.
+  double neumann_stabilization = 0.0;
+  /// Weight of the boundary rows (traction and Dirichlet, after scaling) relative to the Navier
+  /// rows. Only matters for least-squares collocation (extra points); a square system satisfies
+  /// every row exactly whatever its weight.
+  double boundary_row_weight = 1.0;
 };
 
 /// Why an assembly failed, with the node.
 struct AssemblyStatus {
   MlsStatus mls = MlsStatus::ok;
-  int node = -1;       ///< first node whose shape functions failed
+  int node = -1;       ///< first collocation point whose shape functions failed (N + m: extra point m)
   double min_rcond = 1;  ///< smallest rcond(A) over all collocation points
+  double max_support_scale = 1;  ///< largest adaptive support growth used (1: none)
   bool ok() const { return mls == MlsStatus::ok; }
 };
 
-/// K (3N × 3N, row-major sparse) and the right-hand side f = f₀ + G U_tool.
+/// K (3(N + M) × 3N, row-major sparse; square without extra points) and the right-hand side
+/// f = f₀ + G U_tool. Rows 3I…3I+2 belong to node I, rows 3(N + m)… to extra point m.
 struct CollocationSystem {
   Eigen::SparseMatrix<double, Eigen::RowMajor> stiffness;
   Eigen::VectorXd constant_rhs;          ///< f₀

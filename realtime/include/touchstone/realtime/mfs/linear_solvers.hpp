@@ -29,8 +29,9 @@ struct SolverSettings {
 struct SolveReport {
   bool ok = true;
   int iterations = 0;           ///< GMRES iterations (0 for LU)
-  double relative_residual = 0; ///< ‖K x − f‖ / ‖f‖ of the last solve
+  double relative_residual = 0; ///< ‖K x − f‖ / ‖f‖ of the last solve (of KᵀK x = Kᵀf for least squares)
   std::string failure;
+  double least_squares_residual = 0;  ///< ‖K x − f‖ / ‖f‖ when K is rectangular (not zero: the fit's misfit)
 };
 
 class CollocationSolver {
@@ -40,7 +41,9 @@ class CollocationSolver {
   CollocationSolver(CollocationSolver&&) noexcept;
   CollocationSolver& operator=(CollocationSolver&&) noexcept;
 
-  /// Factorises K (reuses the sparse symbolic analysis when the pattern is unchanged).
+  /// Factorises K (reuses the sparse symbolic analysis when the pattern is unchanged). A K with
+  /// more rows than columns (least-squares collocation) is solved through its normal equations
+  /// KᵀK U = Kᵀ f; fewer rows than columns is an error.
   SolveReport factorize(const Eigen::SparseMatrix<double, Eigen::RowMajor>& stiffness);
   /// x = K⁻¹ f for one or several right-hand sides (columns).
   SolveReport solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd& solution) const;

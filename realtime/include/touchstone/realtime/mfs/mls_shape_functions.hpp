@@ -39,6 +39,7 @@ constexpr int basis_size(Basis basis) { return basis == Basis::linear ? 4 : 10; 
 /// Shape-function values and derivatives at one point, for the nodes in `neighbours`.
 struct MlsEvaluation {
   MlsStatus status = MlsStatus::ok;
+  double support_scale = 1;                  ///< the support growth that made A regular (1: none)
   double rcond = 0;                          ///< reciprocal 1-norm condition number 1/(‖Â‖₁‖Â⁻¹‖₁) of the scaled A (exact)
   std::vector<int> neighbours;               ///< node indices with W_J(x) > 0
   std::vector<double> value;                 ///< h_J(x)
@@ -55,6 +56,10 @@ struct MlsSettings {
   /// rcond(A) below this is treated as singular (A is built in the scaled frame, so this is
   /// a property of the node geometry, not of the units).
   double min_rcond = 1e-12;
+  /// Adaptive support growth: when A is singular or has too few nodes at x, every support
+  /// radius is multiplied by 1.2, 1.2², … up to this bound and A rebuilt. 1 disables it; the
+  /// growth used is reported (MlsEvaluation::support_scale).
+  double max_support_scale = 1.0;
 };
 
 /// Evaluates the shape functions at x for nodes at `positions` [m] with support radii `radii`

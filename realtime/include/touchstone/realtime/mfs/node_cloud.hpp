@@ -34,6 +34,17 @@ struct CollocationRow {
   Eigen::Vector3d tool = Eigen::Vector3d::Zero();        ///< [-] for dirichlet rows
 };
 
+/// A collocation point that is not a node (least-squares collocation writes more equations
+/// than there are unknowns: DESIGN.md §4.2, stabilisation). Same rows and data as a node.
+struct CollocationPoint {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  NodeKind kind = NodeKind::interior;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< outward unit normal on boundaries
+  double spacing = 0;                                ///< local node spacing [m] (row scaling)
+  Eigen::Vector3d body_force = Eigen::Vector3d::Zero();  ///< b [N/m³]
+  std::array<CollocationRow, 3> rows;
+};
+
 /// The sprinkled nodes: positions [m], sphere (support) radii [m], kind, outward normal (unit,
 /// boundary nodes only) and the three rows of each node.
 struct NodeCloud {
@@ -44,6 +55,12 @@ struct NodeCloud {
   std::vector<std::array<CollocationRow, 3>> rows;
   /// Typical node spacing around each node [m] (sets the row scaling).
   std::vector<double> spacing;
+  /// Body force b(x_I) [N/m³] per node, or empty for none. Navier rows carry −e·b in their
+  /// value already; stabilised traction rows need b itself.
+  std::vector<Eigen::Vector3d> body_force;
+  /// Extra collocation points: empty for square point collocation (one point per node);
+  /// otherwise K has 3(N + M) rows and U is its weighted least-squares solution.
+  std::vector<CollocationPoint> extra_points;
 
   std::size_t size() const { return positions.size(); }
 };

@@ -46,6 +46,13 @@ struct SprinklingSettings {
   double radius_factor = 2.5;       ///< r_J = radius_factor × local spacing (interior)
   double boundary_radius_factor = 3.0;  ///< r_J on the surface and the cut (one-sided supports)
   OuterCondition outer = OuterCondition::clamped;
+  /// Collocation points per node (about): 1 = square point collocation; > 1 adds extra points
+  /// (the same sprinkling, denser) and K U = f is solved in the least-squares sense, which
+  /// stabilises the traction rows (DESIGN.md §4.2).
+  double oversampling = 1.0;
+  /// The paper's tool (B4): one tool-tip node and no patch rings. The tip node carries the
+  /// natural traction rows of a surface node; the model prescribes its parameters (eq. 7).
+  bool tip_node_only = false;
   std::uint64_t seed = 1;
   /// Throws std::invalid_argument naming the field.
   void validate() const;

@@ -25,9 +25,36 @@ struct PatchQuadrature {
 PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact,
                                  int radial_points = 12, int angular_points = 24);
 
+/// Quadrature of the cut surface Γ_c = organ ∩ sphere(c, L) (c = the contact point on the
+/// surface), with normals pointing out of the local domain (radially). Per azimuth the polar
+/// range runs from the inward normal to where the sphere leaves the organ (found by bisection
+/// on the signed distance), with Gauss–Legendre in the polar angle: no masked cells.
+PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                               int polar_points = 24, int azimuth_points = 48);
+
+/// Volume quadrature of Ω = organ ∩ ball(c, L): per direction (polar, azimuth about the inward
+/// normal) the ray from c is cut where it leaves the organ or reaches L, with Gauss–Legendre in
+/// the radius. `normals` are unused (zero). Weights in [m³].
+PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                                  int radial_points = 16, int polar_points = 24, int azimuth_points = 32);
+
+/// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N). Returns false
+/// (and leaves `map` empty) when a shape-function evaluation fails at a quadrature point.
+bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+                          const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map);
+
+/// Strain energy U = ½ ∫_Ω σ(u_h) : ε(u_h) dV [J] of the nodal parameters over a volume
+/// quadrature. NaN never escapes: a failed shape-function evaluation returns false.
+bool strain_energy(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+                   const PatchQuadrature& volume, const Eigen::VectorXd& parameters, double& energy_J);
+
+/// Tributary areas [m²] of the tool-patch nodes (the paper's force mode scales each patch
+/// node's traction row by its share of the patch): a node's share is the part of the patch
+/// disk closer to it than to any other patch node, estimated on the patch quadrature.
+std::vector<double> tributary_areas(const NodeCloud& cloud, const PatchQuadrature& patch);
+
 /// The linear map U ↦ F = ∫_patch σ(u_h) n dA [N] (force of the tool on the tissue), as a
-/// 3 × 3N matrix. Returns false (and leaves `map` empty) when a shape-function evaluation
-/// fails at a quadrature point.
+/// 3 × 3N matrix: surface_traction_map on the patch quadrature.
 bool traction_force_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
                         const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map);
 

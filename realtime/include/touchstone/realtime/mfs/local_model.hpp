@@ -1,0 +1,132 @@
+#pragma once
+/// @file
+/// The local MFS model of one contact (paper §4, DESIGN.md §4): sprinkle the nodes, assemble
+/// the collocation system, factorise it once, and condense it to the 3×3 tool stiffness K_t
+/// (§4.5). The model is linear in the tool displacement U_tool, so one build serves every
+/// U_tool until the contact moves: F = K_t U_tool is exact for the model, nine multiply-adds.
+///
+/// Model/data split: LocalModel is built once per contact and then only read; LocalSolution is
+/// what one tool displacement produces.
+
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/linear_solvers.hpp"
+#include "touchstone/realtime/mfs/node_sprinkling.hpp"
+#include "touchstone/realtime/mfs/tool_force.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace touchstone::realtime::mfs {
+
+/// The four force extractions of DESIGN.md §4.6. They differ at finite N and must agree as N grows.
+enum class ForceMethod : std::uint8_t {
+  traction_integral,  ///< (a) ∫_patch σ(u_h) n dA
+  reaction,           ///< (b) −∫_cut σ(u_h) n dA: equilibrium of the local domain
+  energy,             ///< (c) F·U_tool = 2U, U = ½∫_Ω σ:ε dV: the component along U_tool only
+  paper_partition,    ///< (d) patch rows K_aa U_a + K_ab U_b scaled by tributary area (paper eq. 9)
+};
+
+std::string to_string(ForceMethod method);
+
+/// Quadrature resolution of the force extractions.
+struct ForceSettings {
+  int patch_radial_points = 16, patch_angular_points = 32;
+  int cut_polar_points = 24, cut_azimuth_points = 48;
+  int volume_radial_points = 16, volume_polar_points = 24, volume_azimuth_points = 32;
+  /// The method that defines K_t (the haptic force). Energy is not linear in U_tool: not allowed;
+  /// reaction needs `reaction` on.
+  ForceMethod haptic_method = ForceMethod::traction_integral;
+  /// Compute the reaction (a cut-surface quadrature) and the energy force (a volume
+  /// quadrature): tens of milliseconds, for studies, not for the model loop.
+  bool reaction = true;
+  bool energy = true;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+struct LocalModelSettings {
+  SprinklingSettings sprinkling;
+  CollocationSettings collocation;
+  SolverSettings solver;
+  ForceSettings force;
+  /// The paper's model (B4, paper eqs. 7–9 literally): one tool-tip node whose nodal parameters
+  /// are set to U_tool (MLS does not interpolate: this is not u_h = U_tool), the natural
+  /// traction rows of the tip as the "force", square collocation. Overrides tip_node_only.
+  bool paper_mode = false;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// The paper-faithful setup of B4: 34 nodes, linear basis, one tip node, LU.
+LocalModelSettings paper_settings();
+
+/// Wall times of a build [s].
+struct BuildTimes {
+  double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0, total_s = 0;
+};
+
+struct LocalModel {
+  Material material;
+  LocalModelSettings settings;
+  ToolContact contact;
+  NodeCloud cloud;
+  CollocationSystem system;
+  CollocationSolver solver;
+  /// Nodal parameters for U_tool = e_x, e_y, e_z (3N × 3) and for the loads alone (3N).
+  Eigen::MatrixXd unit_response;
+  Eigen::VectorXd load_response;
+  /// Force maps U ↦ F (3 × 3N) of the linear methods: traction integral, reaction, paper.
+  Eigen::Matrix<double, 3, Eigen::Dynamic> traction_map, reaction_map, paper_map;
+  PatchQuadrature volume;  ///< energy quadrature (empty when ForceSettings::energy is off)
+  /// K_t [N/m]: F = K_t U_tool + F_loads, by the haptic method.
+  Eigen::Matrix3d tool_stiffness_N_per_m = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d load_force_N = Eigen::Vector3d::Zero();
+  /// Paper mode: the tip node and its raw eq. 9 "force" map (traction rows, [Pa] per m).
+  int tip_node = -1;
+  double tip_tributary_area_m2 = 0;
+  BuildTimes times;
+  /// "ok", or why the model cannot be used (shape functions, singular K, a quadrature point
+  /// outside every support). Never NaN forces: a failed model has status != "ok".
+  std::string status = "ok";
+  bool ok() const { return status == "ok"; }
+};
+
+/// Builds the local model of `contact` on `organ`. Throws std::invalid_argument for invalid
+/// settings, material or contact (naming the field); numerical failures end in `status`.
+LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact,
+                             const Material& material, const LocalModelSettings& settings);
+
+/// Forces on the tissue from the tool [N] (the tool feels the opposite).
+struct ToolForces {
+  Eigen::Vector3d traction_integral_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d reaction_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d paper_partition_N = Eigen::Vector3d::Zero();
+  double energy_J = 0;
+  /// 2U/|U_tool| [N]: the force component along U_tool by energy (NaN-free: 0 if U_tool = 0).
+  double energy_force_N = 0;
+  /// Paper mode only: eq. 9's f_tip in the units of the tip's rows (traction, [Pa]).
+  Eigen::Vector3d paper_tip_residual_Pa = Eigen::Vector3d::Zero();
+  Eigen::Vector3d haptic_N = Eigen::Vector3d::Zero();  ///< K_t U_tool + F_loads
+};
+
+struct LocalSolution {
+  Eigen::VectorXd parameters;  ///< u_J (3N) [m]
+  ToolForces forces;
+  double solve_s = 0, force_s = 0;
+  std::string status = "ok";
+};
+
+/// The response to a tool displacement U_tool [m] (a combination of the stored unit responses:
+/// no new solve).
+LocalSolution solve_local_model(const LocalModel& model, const Eigen::Vector3d& tool_displacement_m);
+
+/// u_h at arbitrary points (probes, surface vertices) [m]; false if a point is outside every
+/// support (its u is left zero).
+bool displacement_at(const LocalModel& model, const Eigen::VectorXd& parameters,
+                     const std::vector<Eigen::Vector3d>& points, std::vector<Eigen::Vector3d>& displacement_m);
+
+}  // namespace touchstone::realtime::mfs

@@ -1,0 +1,278 @@
+#include "touchstone/realtime/mfs/local_model.hpp"
+
+#include <Eigen/SparseLU>
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+const char* to_string(MlsStatus status) {
+  switch (status) {
+    case MlsStatus::ok: return "ok";
+    case MlsStatus::too_few_nodes: return "too_few_nodes";
+    case MlsStatus::singular_moments: return "singular_moments";
+    case MlsStatus::non_finite_input: return "non_finite_input";
+  }
+  return "unknown";
+}
+
+/// Paper eq. 7 with the tip dofs a = 3t…3t+2: U_b = −K_bb⁻¹ K_ba U_a for U_a = e_x, e_y, e_z.
+/// K is square here (paper mode never oversamples).
+bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& unit_response, std::string& failure) {
+  const Eigen::Index n = system.stiffness.cols();
+  std::vector<Eigen::Index> other;  // b: every dof but the tip's
+  std::vector<Eigen::Index> position(n, -1);
+  for (Eigen::Index k = 0; k < n; ++k)
+    if (k / 3 != tip) {
+      position[k] = static_cast<Eigen::Index>(other.size());
+      other.push_back(k);
+    }
+  const Eigen::Index m = static_cast<Eigen::Index>(other.size());
+  std::vector<Eigen::Triplet<double>> bb;
+  Eigen::MatrixXd ba = Eigen::MatrixXd::Zero(m, 3);
+  for (Eigen::Index r = 0; r < system.stiffness.rows(); ++r) {
+    if (r / 3 == tip) continue;
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(system.stiffness, r); it; ++it) {
+      if (it.col() / 3 == tip)
+        ba(position[r], it.col() - 3 * tip) = it.value();
+      else
+        bb.emplace_back(position[r], position[it.col()], it.value());
+    }
+  }
+  Eigen::SparseMatrix<double> k_bb(m, m);
+  k_bb.setFromTriplets(bb.begin(), bb.end());
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(k_bb);
+  if (lu.info() != Eigen::Success) {
+    failure = "K_bb is singular (paper eq. 7): " + lu.lastErrorMessage();
+    return false;
+  }
+  const Eigen::MatrixXd u_b = -lu.solve(ba);
+  if (!u_b.allFinite()) {
+    failure = "paper eq. 7 gave a non-finite U_b";
+    return false;
+  }
+  unit_response.setZero(n, 3);
+  unit_response.block<3, 3>(3 * tip, 0).setIdentity();
+  for (Eigen::Index k = 0; k < m; ++k) unit_response.row(other[k]) = u_b.row(k);
+  return true;
+}
+
+}  // namespace
+
+std::string to_string(ForceMethod method) {
+  switch (method) {
+    case ForceMethod::traction_integral: return "traction_integral";
+    case ForceMethod::reaction: return "reaction";
+    case ForceMethod::energy: return "energy";
+    case ForceMethod::paper_partition: return "paper_partition";
+  }
+  return "unknown";
+}
+
+void ForceSettings::validate() const {
+  const auto check = [](const char* field, int value, int low, int high) {
+    if (value < low || value > high)
+      throw std::invalid_argument(std::string("ForceSettings.") + field + " = " + std::to_string(value) + " must be in [" +
+                                  std::to_string(low) + ", " + std::to_string(high) + "]");
+  };
+  check("patch_radial_points", patch_radial_points, 2, 128);
+  check("patch_angular_points", patch_angular_points, 4, 512);
+  check("cut_polar_points", cut_polar_points, 2, 256);
+  check("cut_azimuth_points", cut_azimuth_points, 4, 512);
+  check("volume_radial_points", volume_radial_points, 2, 128);
+  check("volume_polar_points", volume_polar_points, 2, 256);
+  check("volume_azimuth_points", volume_azimuth_points, 4, 512);
+  if (haptic_method == ForceMethod::energy)
+    throw std::invalid_argument("ForceSettings.haptic_method = energy: the energy force is not linear in U_tool");
+  if (haptic_method == ForceMethod::reaction && !reaction)
+    throw std::invalid_argument("ForceSettings.haptic_method = reaction needs ForceSettings.reaction = true");
+}
+
+void LocalModelSettings::validate() const {
+  sprinkling.validate();
+  force.validate();
+  const auto finite_non_negative = [](const char* field, double value) {
+    if (!std::isfinite(value) || value < 0)
+      throw std::invalid_argument(std::string("CollocationSettings.") + field + " = " + std::to_string(value) +
+                                  " must be finite and >= 0");
+  };
+  finite_non_negative("neumann_stabilization", collocation.neumann_stabilization);
+  finite_non_negative("boundary_row_weight", collocation.boundary_row_weight);
+  if (!(collocation.boundary_row_weight > 0))
+    throw std::invalid_argument("CollocationSettings.boundary_row_weight = 0: boundary rows would vanish");
+  if (!(collocation.mls.max_support_scale >= 1 && collocation.mls.max_support_scale <= 4))
+    throw std::invalid_argument("MlsSettings.max_support_scale = " + std::to_string(collocation.mls.max_support_scale) +
+                                " must be in [1, 4]");
+  if (paper_mode && sprinkling.oversampling > 1)
+    throw std::invalid_argument("paper_mode with sprinkling.oversampling = " + std::to_string(sprinkling.oversampling) +
+                                ": the paper's partition (eq. 7) needs square collocation");
+}
+
+LocalModelSettings paper_settings() {
+  LocalModelSettings s;
+  s.paper_mode = true;
+  s.sprinkling.node_count = 34;
+  s.sprinkling.oversampling = 1;
+  s.collocation.mls.basis = Basis::linear;
+  s.solver.kind = SolverKind::dense_lu;
+  s.force.haptic_method = ForceMethod::paper_partition;
+  return s;
+}
+
+LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const Material& material,
+                             const LocalModelSettings& settings) {
+  material.validate();
+  settings.validate();
+  const auto start = std::chrono::steady_clock::now();
+  LocalModel model;
+  model.material = material;
+  model.settings = settings;
+  model.contact = contact;
+  SprinklingSettings sprinkling = settings.sprinkling;
+  if (settings.paper_mode) sprinkling.tip_node_only = true;
+  model.cloud = sprinkle_nodes(organ, contact, sprinkling);
+  model.times.sprinkle_s = seconds_since(start);
+
+  auto step = std::chrono::steady_clock::now();
+  assemble_collocation(model.cloud, material, settings.collocation, model.system);
+  model.times.assembly_s = seconds_since(step);
+  const auto fail = [&](std::string why) {
+    model.status = std::move(why);
+    model.times.total_s = seconds_since(start);
+    return std::move(model);
+  };
+  if (!model.system.status.ok())
+    return fail(std::string("shape functions failed (") + to_string(model.system.status.mls) + ") at collocation point " +
+                std::to_string(model.system.status.node));
+
+  const int n = static_cast<int>(model.cloud.size());
+  step = std::chrono::steady_clock::now();
+  if (settings.paper_mode) {
+    model.tip_node = 0;  // the sprinkler places the tip first
+    std::string failure;
+    if (!condense_tip(model.system, model.tip_node, model.unit_response, failure)) return fail(failure);
+    model.load_response.setZero(3 * n);
+  } else {
+    model.solver = CollocationSolver(settings.solver);
+    const SolveReport factorised = model.solver.factorize(model.system.stiffness);
+    if (!factorised.ok) return fail("factorisation: " + factorised.failure);
+    model.times.factorize_s = seconds_since(step);
+    step = std::chrono::steady_clock::now();
+    Eigen::MatrixXd rhs(model.system.tool_rhs.rows(), 4), response;
+    rhs << model.system.tool_rhs, model.system.constant_rhs;
+    const SolveReport solved = model.solver.solve(rhs, response);
+    if (!solved.ok) return fail("solve: " + solved.failure);
+    model.unit_response = response.leftCols<3>();
+    model.load_response = response.col(3);
+  }
+
+  // Force maps: each is U ↦ F, so K_t = map · unit_response is the condensation (§4.5).
+  const MlsSettings& mls = settings.collocation.mls;
+  const ForceSettings& f = settings.force;
+  const PatchQuadrature patch = patch_quadrature(organ, contact, f.patch_radial_points, f.patch_angular_points);
+  if (!surface_traction_map(model.cloud, material, mls, patch, model.traction_map))
+    return fail("a tool-patch quadrature point is outside every support");
+  if (f.reaction) {
+    const PatchQuadrature cut =
+        cut_quadrature(organ, contact, settings.sprinkling.local_radius_m, f.cut_polar_points, f.cut_azimuth_points);
+    if (!surface_traction_map(model.cloud, material, mls, cut, model.reaction_map))
+      return fail("a cut-surface quadrature point is outside every support");
+    model.reaction_map = -model.reaction_map;  // the tool balances what the cut surface holds
+  } else {
+    model.reaction_map.setZero(3, 3 * n);
+  }
+  if (settings.paper_mode) {
+    // Eq. 9 literally: the tip's rows applied to U, in the rows' own units (traction [Pa]),
+    // then times a tributary area π s² (B4: the FEM patch radius equals the node spacing).
+    const double s = model.cloud.spacing[model.tip_node];
+    model.tip_tributary_area_m2 = pi * s * s;
+    model.paper_map.setZero(3, 3 * n);
+    for (int r = 0; r < 3; ++r) {
+      const int row = 3 * model.tip_node + r;
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(model.system.stiffness, row); it; ++it)
+        model.paper_map(r, it.col()) = it.value() / model.system.row_scale[row];
+    }
+    // The tip's rows are along the axes: the residual is already a traction vector.
+    model.paper_map *= model.tip_tributary_area_m2;
+  } else {
+    PatchQuadrature nodes;  // the patch nodes with their tributary areas: a nodal quadrature
+    const std::vector<double> area = tributary_areas(model.cloud, patch);
+    for (int j = 0; j < n; ++j)
+      if (model.cloud.kinds[j] == NodeKind::tool_patch) {
+        nodes.points.push_back(model.cloud.positions[j]);
+        nodes.normals.push_back(model.cloud.normals[j]);
+        nodes.weights.push_back(area[j]);
+      }
+    if (!surface_traction_map(model.cloud, material, mls, nodes, model.paper_map))
+      return fail("a tool-patch node is outside every support");
+  }
+  if (f.energy)
+    model.volume = volume_quadrature(organ, contact, settings.sprinkling.local_radius_m, f.volume_radial_points,
+                                     f.volume_polar_points, f.volume_azimuth_points);
+  const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic = f.haptic_method == ForceMethod::reaction ? model.reaction_map
+                                                           : f.haptic_method == ForceMethod::paper_partition
+                                                               ? model.paper_map
+                                                               : model.traction_map;
+  model.tool_stiffness_N_per_m = haptic * model.unit_response;
+  model.load_force_N = haptic * model.load_response;
+  if (!model.tool_stiffness_N_per_m.allFinite() || !model.load_force_N.allFinite())
+    return fail("the tool stiffness is not finite");
+  model.times.condense_s = seconds_since(step);
+  model.times.total_s = seconds_since(start);
+  return model;
+}
+
+LocalSolution solve_local_model(const LocalModel& model, const Eigen::Vector3d& tool_displacement_m) {
+  LocalSolution solution;
+  if (!model.ok()) {
+    solution.status = "model not usable: " + model.status;
+    return solution;
+  }
+  if (!tool_displacement_m.allFinite()) {
+    solution.status = "tool displacement is not finite";
+    return solution;
+  }
+  auto start = std::chrono::steady_clock::now();
+  solution.parameters = model.unit_response * tool_displacement_m + model.load_response;
+  solution.solve_s = seconds_since(start);
+  start = std::chrono::steady_clock::now();
+  ToolForces& f = solution.forces;
+  f.traction_integral_N = model.traction_map * solution.parameters;
+  f.reaction_N = model.reaction_map * solution.parameters;
+  f.paper_partition_N = model.paper_map * solution.parameters;
+  if (model.settings.paper_mode) f.paper_tip_residual_Pa = f.paper_partition_N / model.tip_tributary_area_m2;
+  f.haptic_N = model.tool_stiffness_N_per_m * tool_displacement_m + model.load_force_N;
+  if (!model.volume.points.empty()) {
+    if (!strain_energy(model.cloud, model.material, model.settings.collocation.mls, model.volume, solution.parameters,
+                       f.energy_J)) {
+      solution.status = "a volume quadrature point is outside every support";
+    } else if (tool_displacement_m.norm() > 0) {
+      f.energy_force_N = 2 * f.energy_J / tool_displacement_m.norm();
+    }
+  }
+  solution.force_s = seconds_since(start);
+  return solution;
+}
+
+bool displacement_at(const LocalModel& model, const Eigen::VectorXd& parameters, const std::vector<Eigen::Vector3d>& points,
+                     std::vector<Eigen::Vector3d>& displacement_m) {
+  displacement_m.assign(points.size(), Eigen::Vector3d::Zero());
+  MlsEvaluation scratch;
+  bool all = true;
+  for (std::size_t p = 0; p < points.size(); ++p)
+    all = evaluate_displacement(model.cloud, parameters, points[p], model.settings.collocation.mls, scratch,
+                                displacement_m[p]) == MlsStatus::ok &&
+          all;
+  return all;
+}
+
+}  // namespace touchstone::realtime::mfs
