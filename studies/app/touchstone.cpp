@@ -2,6 +2,7 @@
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/studies/reference_study.hpp"
 
@@ -55,6 +56,19 @@ int run_fem(int& argc, char**& argv, const std::string& config_path, const studi
   return 0;
 }
 
+/// `touchstone mfs`: the MFS local model on a study file's cases (no MPI: one process).
+int run_mfs(const std::string& config_path, const studies::MfsRunOptions& options_in) {
+  studies::MfsRunOptions options = options_in;
+  options.config_text = studies::read_file(config_path);
+  studies::ConfigTable config = studies::ConfigTable::from_file(config_path);
+  const studies::MfsStudy study =
+      studies::read_mfs_study(config, std::filesystem::path(config_path).parent_path().string());
+  if (options.output_directory.empty()) options.output_directory = "output/" + study.name;
+  studies::run_mfs_study(study, options);
+  std::printf("\nresults: %s/results.json\n", options.output_directory.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -84,6 +98,16 @@ int main(int argc, char** argv) {
   fem_cmd->add_flag("--no-cache", no_cache, "Solve everything again and cache nothing");
   fem_cmd->add_flag("--quiet", fem_options.quiet, "Print only errors");
 
+  std::string mfs_config;
+  studies::MfsRunOptions mfs_options;
+  mfs_options.output_directory.clear();
+  CLI::App* mfs_cmd = app.add_subcommand(
+      "mfs", "MFS local model (Method of Finite Spheres): one case per contact condition and node count; "
+             "writes results.json, config.resolved.toml and one node-cloud VTU per case");
+  mfs_cmd->add_option("config", mfs_config, "Study file (TOML), e.g. studies/mfs_b3.toml")->required()->check(CLI::ExistingFile);
+  mfs_cmd->add_option("--out", mfs_options.output_directory, "Output folder (default: output/<study name>)");
+  mfs_cmd->add_flag("--quiet", mfs_options.quiet, "Print only errors");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*mesh) return run_mesh(mesh_config, mesh_refinement, mesh_output, geo_output);
@@ -91,6 +115,7 @@ int main(int argc, char** argv) {
       if (no_cache) fem_options.cache_directory.clear();
       return run_fem(argc, argv, fem_config, fem_options);
     }
+    if (*mfs_cmd) return run_mfs(mfs_config, mfs_options);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "touchstone: error: %s\n", e.what());
     return 1;

@@ -3,6 +3,7 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <Eigen/LU>
 #include <Eigen/SparseLU>
 #include <unsupported/Eigen/IterativeSolvers>
@@ -28,6 +29,12 @@ CollocationSolver::CollocationSolver(CollocationSolver&&) noexcept = default;
 CollocationSolver& CollocationSolver::operator=(CollocationSolver&&) noexcept = default;
 
 namespace {
+
+std::string scientific(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3e", value);
+  return text;
+}
 
 bool same_pattern(const ColMatrix& a, const ColMatrix& b) {
   if (a.rows() != b.rows() || a.cols() != b.cols() || a.nonZeros() != b.nonZeros()) return false;
@@ -112,7 +119,7 @@ SolveReport CollocationSolver::solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd
         if (s.gmres.info() != Eigen::Success) {
           report.ok = false;
           report.failure = "GMRES did not converge in " + std::to_string(s.gmres.iterations()) +
-                           " iterations (estimated error " + std::to_string(s.gmres.error()) + ")";
+                           " iterations (estimated relative error " + scientific(s.gmres.error()) + ")";
         }
       }
       break;
@@ -124,6 +131,13 @@ SolveReport CollocationSolver::solve(const Eigen::MatrixXd& rhs, Eigen::MatrixXd
     report.least_squares_residual = f_norm > 0 ? (s.rectangular * x - rhs).norm() / f_norm : 0.0;
   }
   if (!x.allFinite()) return {false, report.iterations, report.relative_residual, "solution is not finite"};
+  // LU does not always see a singular K (rounding leaves tiny non-zero pivots): judge the
+  // residual, so that a wrong answer is never reported as a solution.
+  if (report.ok && !(report.relative_residual <= settings_.max_relative_residual)) {
+    report.ok = false;
+    report.failure = "K is singular or too ill-conditioned: relative residual " + scientific(report.relative_residual) +
+                     " > " + scientific(settings_.max_relative_residual);
+  }
   if (report.ok) solution = std::move(x);
   return report;
 }

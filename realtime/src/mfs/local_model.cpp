@@ -56,8 +56,9 @@ bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& uni
     return false;
   }
   const Eigen::MatrixXd u_b = -lu.solve(ba);
-  if (!u_b.allFinite()) {
-    failure = "paper eq. 7 gave a non-finite U_b";
+  const double residual = (k_bb * u_b + ba).norm() / std::max(ba.norm(), 1e-300);
+  if (!u_b.allFinite() || !(residual < 1e-6)) {
+    failure = "K_bb is singular or too ill-conditioned (paper eq. 7): relative residual " + std::to_string(residual);
     return false;
   }
   unit_response.setZero(n, 3);

@@ -6,7 +6,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 namespace touchstone::realtime::mfs {
 namespace {
@@ -20,8 +24,12 @@ const geometry::TriangleSurface& hemisphere() {
     g.edge_size_m = 0.0005;
     g.size_growth = 0.3;
     g.max_size_m = 0.004;
-    meshes::generate_mesh(g, "sprinkling_hemisphere.msh");
-    return geometry::TriangleSurface::from_msh("sprinkling_hemisphere.msh");
+    // One file per process: ctest runs the cases of this program in parallel.
+    const std::string path = "sprinkling_hemisphere_" + std::to_string(getpid()) + ".msh";
+    meshes::generate_mesh(g, path);
+    geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
+    std::remove(path.c_str());
+    return surface;
   }();
   return surface;
 }
@@ -138,8 +146,11 @@ const geometry::TriangleSurface& cylinder() {
     g.edge_size_m = 0.0005;
     g.size_growth = 0.3;
     g.max_size_m = 0.004;
-    meshes::generate_mesh(g, "sprinkling_cylinder.msh");
-    return geometry::TriangleSurface::from_msh("sprinkling_cylinder.msh");
+    const std::string path = "sprinkling_cylinder_" + std::to_string(getpid()) + ".msh";
+    meshes::generate_mesh(g, path);
+    geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
+    std::remove(path.c_str());
+    return surface;
   }();
   return surface;
 }

@@ -15,7 +15,9 @@
 namespace touchstone::realtime::mfs {
 
 struct CollocationSettings {
-  MlsSettings mls;
+  /// Shape functions; supports may grow up to 1.5× where a collocation point (extra points
+  /// sit between nodes) has too few neighbours.
+  MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 1.5};
   /// Scale rows to displacement units before solving: Navier rows by s²/E, traction rows by
   /// s/E (s = the node's spacing), Dirichlet rows by 1. Iterative solvers need it; LU does not
   /// care, and the solution is the same.

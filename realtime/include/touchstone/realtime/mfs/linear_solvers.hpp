@@ -20,6 +20,8 @@ struct SolverSettings {
   double gmres_tolerance = 1e-12;   ///< relative residual
   int gmres_restart = 60;
   int gmres_max_iterations = 2000;
+  /// A solve whose relative residual (of KᵀK for least squares) exceeds this is a failure.
+  double max_relative_residual = 1e-6;
   double ilut_drop_tolerance = 1e-6;
   int ilut_fill_factor = 20;
 };

@@ -1,0 +1,709 @@
+// `touchstone mfs`: TOML → MfsStudy (sections map one-to-one onto the engine's parameter
+// structs), the cases of the sweep, results.json (DESIGN.md §8) and the node clouds as VTU.
+#include "touchstone/studies/mfs_study.hpp"
+
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
+#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/provenance.hpp"
+
+#include <toml++/toml.h>
+
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace touchstone::studies {
+namespace fs = std::filesystem;
+namespace mfs = realtime::mfs;
+using nlohmann::json;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Names of the engine's enums, as spelled in configs, results.json and the resolved config.
+
+template <class E>
+struct Named {
+  const char* name;
+  E value;
+};
+
+const std::vector<Named<mfs::Layout>> layouts{{"radial_shells", mfs::Layout::radial_shells},
+                                              {"quasi_random", mfs::Layout::quasi_random},
+                                              {"lattice", mfs::Layout::lattice}};
+const std::vector<Named<mfs::OuterCondition>> outer_conditions{{"clamped", mfs::OuterCondition::clamped},
+                                                               {"traction_free", mfs::OuterCondition::traction_free}};
+const std::vector<Named<mfs::PatchCondition>> patch_conditions{{"frictionless", mfs::PatchCondition::frictionless},
+                                                               {"bonded", mfs::PatchCondition::bonded}};
+const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
+const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::quartic_spline},
+                                              {"cubic_spline", mfs::Weight::cubic_spline},
+                                              {"truncated_gaussian", mfs::Weight::truncated_gaussian}};
+const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverKind::dense_lu},
+                                                       {"sparse_lu", mfs::SolverKind::sparse_lu},
+                                                       {"gmres_ilut", mfs::SolverKind::gmres_ilut}};
+// "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
+const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
+                                                         {"reaction", mfs::ForceMethod::reaction},
+                                                         {"energy", mfs::ForceMethod::energy},
+                                                         {"paper_partition", mfs::ForceMethod::paper_partition}};
+
+template <class E>
+std::vector<std::string> names(const std::vector<Named<E>>& table) {
+  std::vector<std::string> result;
+  for (const auto& entry : table) result.push_back(entry.name);
+  return result;
+}
+
+template <class E>
+std::string name_of(const std::vector<Named<E>>& table, E value) {
+  for (const auto& entry : table)
+    if (entry.value == value) return entry.name;
+  return "unknown";
+}
+
+template <class E>
+E value_of(const std::vector<Named<E>>& table, const std::string& name) {
+  for (const auto& entry : table)
+    if (name == entry.name) return entry.value;
+  throw std::invalid_argument("unknown name '" + name + "'");  // unreachable after ConfigTable::choice
+}
+
+template <class E>
+E read_choice(ConfigTable& table, const std::string& key, const std::vector<Named<E>>& choices, E default_value) {
+  return value_of(choices, table.choice(key, names(choices), name_of(choices, default_value)));
+}
+
+int checked_int(const std::string& where, std::int64_t value) {
+  if (value < INT_MIN || value > INT_MAX)
+    throw ConfigError(where + ": " + std::to_string(value) + " is out of the range of an int");
+  return static_cast<int>(value);
+}
+
+int read_int(ConfigTable& table, const std::string& key, int default_value) {
+  return checked_int(table.where(key), table.integer(key, default_value));
+}
+
+// ---------------------------------------------------------------------------------------------
+// JSON that never holds NaN: a non-finite number becomes null (and the case is not "ok").
+
+json number(double value) { return std::isfinite(value) ? json(value) : json(nullptr); }
+
+json vector_json(const Eigen::Vector3d& v) { return json::array({number(v[0]), number(v[1]), number(v[2])}); }
+
+json matrix_json(const Eigen::Matrix3d& m) {
+  json rows = json::array();
+  for (int i = 0; i < 3; ++i) rows.push_back(vector_json(m.row(i).transpose()));
+  return rows;
+}
+
+/// Replaces every non-finite number in `j` by null; true if there was one.
+bool scrub_non_finite(json& j) {
+  bool found = false;
+  if (j.is_number_float() && !std::isfinite(j.get<double>())) {
+    j = nullptr;
+    return true;
+  }
+  if (j.is_structured())
+    for (auto& element : j) found = scrub_non_finite(element) || found;
+  return found;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string format_number(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The organ surface.
+
+struct Organ {
+  realtime::geometry::TriangleSurface surface;
+  json info;
+};
+
+/// B3 is the hemisphere seen through the local ball: the MFS cuts the ball itself, so its
+/// organ is the whole hemisphere (B2), not the truncated FEM domain.
+meshes::MeshParameters surface_geometry(const MfsStudy& study) {
+  meshes::MeshParameters g = study.geometry;
+  if (g.benchmark == meshes::Benchmark::B3) g.benchmark = meshes::Benchmark::B2;
+  g.refinement = 0;
+  return g;
+}
+
+Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
+  const auto start = std::chrono::steady_clock::now();
+  json info;
+  std::string path = study.surface_path;
+  if (path.empty()) {
+    const meshes::MeshParameters g = surface_geometry(study);
+    path = (fs::path(output_directory) / "organ_surface.msh").string();
+    fs::create_directories(output_directory);
+    const meshes::MeshSummary summary = meshes::generate_mesh(g, path);
+    info = {{"source", "generated"},
+            {"benchmark", meshes::to_string(g.benchmark)},
+            {"edge_size_m", g.edge_size_m},
+            {"size_growth", g.size_growth},
+            {"max_size_m", g.max_size_m},
+            {"mesh_s", summary.seconds}};
+  } else {
+    info = {{"source", "file"}};
+  }
+  realtime::geometry::TriangleSurface surface = realtime::geometry::TriangleSurface::from_msh(path);
+  info["path"] = path;
+  info["sha256"] = sha256_hex(read_file(path));
+  info["vertices"] = surface.vertices().size();
+  info["triangles"] = surface.triangles().size();
+  info["area_m2"] = number(surface.area_m2());
+  info["volume_m3"] = number(surface.volume_m3());
+  info["time_s"] = seconds_since(start);
+  return {std::move(surface), std::move(info)};
+}
+
+Eigen::Vector3d study_contact_point(const MfsStudy& study) {
+  return study.contact_point_m ? *study.contact_point_m : contact_point(study.geometry);
+}
+
+// ---------------------------------------------------------------------------------------------
+// One case: build the local model, push the tool δ d, extract every force.
+
+json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const mfs::ToolContact& contact,
+                 int node_count_requested) {
+  const mfs::SprinklingSettings& sp = s.sprinkling;
+  const mfs::MlsSettings& mls = s.collocation.mls;
+  return {{"node_count_requested", node_count_requested},
+          {"node_count", nullptr},
+          {"extra_points", nullptr},
+          {"benchmark", meshes::to_string(study.geometry.benchmark)},
+          {"body_radius_m", study.geometry.body_radius_m},
+          {"tool_radius_m", contact.radius_m},
+          {"contact_polar_angle_rad", study.geometry.contact_polar_angle_rad},
+          {"contact_point_m", vector_json(contact.point)},
+          {"youngs_modulus_Pa", study.material.youngs_modulus_Pa},
+          {"poisson_ratio", study.material.poisson_ratio},
+          {"depth_m", study.depth_m},
+          {"direction", vector_json(contact.direction)},
+          {"contact", name_of(patch_conditions, contact.condition)},
+          {"paper_mode", s.paper_mode},
+          {"local_radius_m", sp.local_radius_m},
+          {"layout", name_of(layouts, sp.layout)},
+          {"ring_nodes", sp.ring_nodes},
+          {"radius_factor", sp.radius_factor},
+          {"boundary_radius_factor", sp.boundary_radius_factor},
+          {"outer", name_of(outer_conditions, sp.outer)},
+          {"oversampling", sp.oversampling},
+          {"tip_node_only", sp.tip_node_only},
+          {"seed", sp.seed},
+          {"basis", name_of(bases, mls.basis)},
+          {"weight", name_of(weights, mls.weight)},
+          {"min_rcond_threshold", mls.min_rcond},
+          {"max_support_scale", mls.max_support_scale},
+          {"scale_rows", s.collocation.scale_rows},
+          {"neumann_stabilization", s.collocation.neumann_stabilization},
+          {"boundary_row_weight", s.collocation.boundary_row_weight},
+          {"solver", name_of(solver_kinds, s.solver.kind)},
+          {"gmres_tolerance", s.solver.gmres_tolerance},
+          {"gmres_restart", s.solver.gmres_restart},
+          {"gmres_max_iterations", s.solver.gmres_max_iterations},
+          {"max_relative_residual", s.solver.max_relative_residual},
+          {"ilut_drop_tolerance", s.solver.ilut_drop_tolerance},
+          {"ilut_fill_factor", s.solver.ilut_fill_factor},
+          {"haptic_method", name_of(force_methods, s.force.haptic_method)},
+          {"patch_quadrature", {s.force.patch_radial_points, s.force.patch_angular_points}},
+          {"cut_quadrature", {s.force.cut_polar_points, s.force.cut_azimuth_points}},
+          {"volume_quadrature",
+           {s.force.volume_radial_points, s.force.volume_polar_points, s.force.volume_azimuth_points}}};
+}
+
+json null_qoi() {
+  return {{"force_N", nullptr},
+          {"axial_force_N", nullptr},
+          {"stiffness_N_per_m", nullptr},
+          {"energy_J", nullptr},
+          {"k_star", nullptr},
+          {"forces_by_method_N",
+           {{"traction_integral", nullptr}, {"reaction", nullptr}, {"paper_partition", nullptr}, {"energy_along_tool", nullptr}}},
+          {"tool_stiffness_matrix_N_per_m", nullptr},
+          {"probes", json::array()},
+          {"min_rcond", nullptr}};
+}
+
+/// rcond of the moment matrix A at each node: where the shape functions are close to failing.
+std::vector<double> node_rcond(const mfs::NodeCloud& cloud, const mfs::MlsSettings& settings) {
+  std::vector<double> rcond(cloud.size(), 0.0);
+  mfs::MlsEvaluation scratch;
+  for (std::size_t j = 0; j < cloud.size(); ++j) {
+    mfs::evaluate_mls(cloud.positions[j], cloud.positions, cloud.radii, {}, settings, mfs::Derivatives::values, scratch);
+    rcond[j] = std::isfinite(scratch.rcond) ? scratch.rcond : 0.0;
+  }
+  return rcond;
+}
+
+class CaseRunner {
+ public:
+  CaseRunner(const MfsStudy& study, const Organ& organ, const MfsRunOptions& options)
+      : study_(study), organ_(organ), options_(options) {}
+
+  json run(mfs::PatchCondition condition, int node_count) const {
+    mfs::ToolContact contact;
+    contact.point = study_contact_point(study_);
+    contact.direction = study_.direction.normalized();
+    contact.radius_m = study_.geometry.tool_radius_m;
+    contact.condition = condition;
+    mfs::LocalModelSettings settings = study_.model;
+    settings.sprinkling.node_count = node_count;
+
+    const std::string id = mfs_case_id(condition, node_count);
+    json c{{"id", id},
+           {"model", "mfs"},
+           {"params", case_params(study_, settings, contact, node_count)},
+           {"qoi", null_qoi()},
+           // No reference in this study: the study runner pairs these cases with the FEM's.
+           {"error", {{"force_rel", nullptr}, {"disp_rel_l2", nullptr}, {"disp_max_m", nullptr}}},
+           {"reference", nullptr},
+           {"time_s", {{"build", 0.0}, {"solve", 0.0}, {"total", 0.0}, {"sprinkle", 0.0}, {"assembly", 0.0},
+                       {"factorize", 0.0}, {"condense", 0.0}, {"force", 0.0}}},
+           {"vtu", nullptr},
+           {"status", "ok"}};
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      solve(c, contact, settings);
+    } catch (const std::exception& e) {
+      // Setup errors of one case (e.g. a contact point off a user's surface) fail that case only.
+      c["status"] = std::string("error: ") + e.what();
+      c["time_s"]["total"] = seconds_since(start);
+    }
+    if (scrub_non_finite(c) && c["status"] == "ok") c["status"] = "non_finite_result";
+    return c;
+  }
+
+ private:
+  void solve(json& c, const mfs::ToolContact& contact, const mfs::LocalModelSettings& settings) const {
+    const mfs::LocalModel model = mfs::build_local_model(organ_.surface, contact, study_.material, settings);
+    const mfs::NodeCloud& cloud = model.cloud;
+    json& params = c["params"];
+    params["node_count"] = cloud.size();
+    params["extra_points"] = cloud.extra_points.size();
+    int kinds[4] = {0, 0, 0, 0};
+    for (const auto kind : cloud.kinds) ++kinds[static_cast<int>(kind)];
+    params["nodes_by_kind"] = {{"interior", kinds[0]}, {"free_surface", kinds[1]}, {"tool_patch", kinds[2]}, {"cut", kinds[3]}};
+    c["qoi"]["min_rcond"] = number(model.system.status.min_rcond);
+    c["diagnostics"] = {{"max_support_scale_used", number(model.system.status.max_support_scale)}};
+    json& time = c["time_s"];
+    time["sprinkle"] = model.times.sprinkle_s;
+    time["assembly"] = model.times.assembly_s;
+    time["factorize"] = model.times.factorize_s;
+    time["condense"] = model.times.condense_s;
+    // One build serves every tool displacement (the factorisation and K_t are part of it), so
+    // "solve" is what a new U_tool costs: combining the stored unit responses.
+    time["build"] = model.times.total_s;
+    time["total"] = model.times.total_s;
+
+    const std::string vtu_name = c["id"].get<std::string>() + ".vtu";
+    if (!model.ok()) {
+      c["status"] = model.status;
+      if (cloud.size() > 0) write_vtu(c, cloud, {}, vtu_name);
+      return;
+    }
+
+    const Eigen::Vector3d tool_displacement = study_.depth_m * contact.direction;
+    const mfs::LocalSolution solution = mfs::solve_local_model(model, tool_displacement);
+    time["solve"] = solution.solve_s;
+    time["force"] = solution.force_s;
+    time["total"] = model.times.total_s + solution.solve_s + solution.force_s;
+    if (solution.status != "ok") {
+      c["status"] = solution.status;
+      write_vtu(c, cloud, {}, vtu_name);
+      return;
+    }
+
+    const mfs::ToolForces& f = solution.forces;
+    const Eigen::Vector3d& d = contact.direction;
+    const double axial = f.haptic_N.dot(d);
+    const double a = contact.radius_m, e = study_.material.youngs_modulus_Pa;
+    json& qoi = c["qoi"];
+    qoi["force_N"] = vector_json(f.haptic_N);
+    qoi["axial_force_N"] = number(axial);
+    qoi["stiffness_N_per_m"] = number(std::abs(axial) / study_.depth_m);
+    qoi["energy_J"] = settings.force.energy ? number(f.energy_J) : json(nullptr);
+    qoi["k_star"] = number(axial / (e * a * study_.depth_m));
+    qoi["forces_by_method_N"] = {
+        {"traction_integral", vector_json(f.traction_integral_N)},
+        {"reaction", settings.force.reaction ? vector_json(f.reaction_N) : json(nullptr)},
+        {"paper_partition", vector_json(f.paper_partition_N)},
+        {"energy_along_tool", settings.force.energy ? number(f.energy_force_N) : json(nullptr)}};
+    qoi["tool_stiffness_matrix_N_per_m"] = matrix_json(model.tool_stiffness_N_per_m);
+    qoi["probes"] = probes(model, solution.parameters, contact);
+    if (settings.paper_mode) qoi["paper_tip_residual_Pa"] = vector_json(f.paper_tip_residual_Pa);
+    if (!f.haptic_N.allFinite() || !f.traction_integral_N.allFinite()) c["status"] = "non_finite_force";
+
+    mfs::NodeCloudFields fields;
+    std::vector<Eigen::Vector3d> nodal;
+    mfs::displacement_at(model, solution.parameters, cloud.positions, nodal);
+    fields.displacement_m.resize(3 * static_cast<Eigen::Index>(cloud.size()));
+    for (std::size_t j = 0; j < cloud.size(); ++j) fields.displacement_m.segment<3>(3 * static_cast<Eigen::Index>(j)) = nodal[j];
+    fields.parameters_m = solution.parameters;
+    fields.rcond = node_rcond(cloud, settings.collocation.mls);
+    write_vtu(c, cloud, fields, vtu_name);
+  }
+
+  /// The study's probe points inside the local ball. The 0.9 L reach is the one the FEM uses
+  /// for B3 (points next to the clamped cut say little), so both models report the same set.
+  json probes(const mfs::LocalModel& model, const Eigen::VectorXd& parameters, const mfs::ToolContact& contact) const {
+    json list = json::array();
+    const double reach = 0.9 * model.settings.sprinkling.local_radius_m;
+    for (const Probe& probe : indentation_probes(study_.geometry, contact.direction)) {
+      if ((probe.position_m - contact.point).norm() >= reach) continue;
+      std::vector<Eigen::Vector3d> u;
+      const bool found = mfs::displacement_at(model, parameters, {probe.position_m}, u);
+      list.push_back({{"name", probe.name},
+                      {"position_m", vector_json(probe.position_m)},
+                      {"displacement_m", found ? vector_json(u.front()) : json(nullptr)},
+                      {"found", found}});
+    }
+    return list;
+  }
+
+  void write_vtu(json& c, const mfs::NodeCloud& cloud, const mfs::NodeCloudFields& fields, const std::string& name) const {
+    if (!study_.write_vtu) return;
+    try {
+      mfs::write_node_cloud_vtu(cloud, fields, (fs::path(options_.output_directory) / name).string());
+      c["vtu"] = name;
+    } catch (const std::exception& e) {
+      // A missing picture does not invalidate the numbers; say why it is missing.
+      c["vtu_error"] = e.what();
+    }
+  }
+
+  const MfsStudy& study_;
+  const Organ& organ_;
+  const MfsRunOptions& options_;
+};
+
+/// F·d of a JSON vector; NaN (printed as "-") when it is null.
+double axial_or_nan(const json& vector, const Eigen::Vector3d& d) {
+  double sum = 0;
+  for (int i = 0; i < 3; ++i) {
+    if (!vector.is_array() || !vector.at(i).is_number()) return std::numeric_limits<double>::quiet_NaN();
+    sum += vector.at(i).get<double>() * d[i];
+  }
+  return sum;
+}
+
+void print_table(const json& cases, const Eigen::Vector3d& d) {
+  std::printf("\nforce on the tissue along d [mN]\n");
+  std::printf("%-28s %6s %6s %11s %11s %11s %11s %11s %10s  %s\n", "case", "N", "extra", "haptic", "traction",
+              "reaction", "paper", "energy", "build[ms]", "status");
+  const auto milli = [](double value) {
+    char text[32];
+    if (std::isfinite(value))
+      std::snprintf(text, sizeof text, "%.5f", 1e3 * value);
+    else
+      std::snprintf(text, sizeof text, "-");
+    return std::string(text);
+  };
+  for (const auto& c : cases) {
+    const json& q = c.at("qoi");
+    const json& by = q.at("forces_by_method_N");
+    const json& energy = by.at("energy_along_tool");
+    std::printf("%-28s %6s %6s %11s %11s %11s %11s %11s %10.2f  %s\n", c.at("id").get<std::string>().c_str(),
+                c.at("params").at("node_count").dump().c_str(), c.at("params").at("extra_points").dump().c_str(),
+                milli(axial_or_nan(q.at("force_N"), d)).c_str(), milli(axial_or_nan(by.at("traction_integral"), d)).c_str(),
+                milli(axial_or_nan(by.at("reaction"), d)).c_str(), milli(axial_or_nan(by.at("paper_partition"), d)).c_str(),
+                milli(energy.is_number() ? energy.get<double>() : std::numeric_limits<double>::quiet_NaN()).c_str(),
+                1e3 * c.at("time_s").at("build").get<double>(), c.at("status").get<std::string>().c_str());
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+std::string mfs_case_id(mfs::PatchCondition contact, int node_count) {
+  return "MFS-" + name_of(patch_conditions, contact) + "-N" + std::to_string(node_count);
+}
+
+void MfsStudy::validate() const {
+  if (name.empty()) throw std::invalid_argument("study name is empty");
+  const auto positive = [](const std::string& field, double value) {
+    if (!std::isfinite(value) || value <= 0)
+      throw std::invalid_argument(field + " = " + format_number(value) + " must be finite and > 0");
+  };
+  positive("geometry.body_radius_m", geometry.body_radius_m);
+  positive("geometry.tool_radius_m", geometry.tool_radius_m);
+  if (surface_path.empty()) surface_geometry(*this).validate();
+  material.validate();
+  positive("tool.depth_m", depth_m);
+  if (!direction.allFinite() || direction.norm() < 1e-12)
+    throw std::invalid_argument("tool.direction must be finite and non-zero");
+  if (contact_point_m && !contact_point_m->allFinite()) throw std::invalid_argument("tool.point must be finite");
+  if (contacts.empty()) throw std::invalid_argument("tool.contact is an empty list");
+  if (node_counts.empty()) throw std::invalid_argument("sprinkling.node_count is an empty list");
+  const double L = model.sprinkling.local_radius_m;
+  if (!(geometry.tool_radius_m < 0.5 * L))
+    throw std::invalid_argument("geometry.tool_radius_m = " + format_number(geometry.tool_radius_m) +
+                                " must be < sprinkling.local_radius_m / 2 = " + format_number(0.5 * L));
+  for (const int n : node_counts) {
+    mfs::LocalModelSettings s = model;
+    s.sprinkling.node_count = n;
+    s.validate();
+  }
+}
+
+MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory) {
+  MfsStudy study;
+  study.name = config.string("study", study.name);
+
+  // paper_mode picks the defaults of every other section, so it is read first.
+  ConfigTable model = config.table("model");
+  const bool top_level = config.has("paper_mode"), in_model = model.has("paper_mode");
+  if (top_level && in_model)
+    throw ConfigError(config.where("paper_mode") + ": given both at the top level and in [model]; keep one");
+  const bool top_level_value = config.boolean("paper_mode", false), model_value = model.boolean("paper_mode", false);
+  const bool paper_mode = top_level_value || model_value;
+  mfs::LocalModelSettings& s = study.model;
+  s = paper_mode ? mfs::paper_settings() : mfs::LocalModelSettings{};
+  s.paper_mode = paper_mode;
+
+  ConfigTable geometry = config.table("geometry");
+  meshes::MeshParameters& g = study.geometry;
+  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B2", "B3", "B5"}, "B2"));
+  g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
+  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
+  g.contact_polar_angle_rad = geometry.quantity("contact_polar_angle", Dimension::angle, 0.0);
+  const bool geometry_has_l = geometry.has("local_radius");
+  const double geometry_l = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
+
+  // The organ: a surface file, or the benchmark's surface meshed with these sizes.
+  ConfigTable organ = config.table("organ");
+  if (geometry.has("surface") && organ.has("surface"))
+    throw ConfigError(geometry.where("surface") + ": given both in [geometry] and [organ]; keep one");
+  std::string surface = geometry.string("surface", "");
+  if (surface.empty()) surface = organ.string("surface", "");
+  const std::string surface_key = geometry.has("surface") ? geometry.where("surface") : organ.where("surface");
+  if (!surface.empty()) {
+    fs::path path(surface);
+    if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
+    std::error_code ignored;
+    if (!fs::is_regular_file(path, ignored)) throw ConfigError(surface_key + ": no such file '" + path.string() + "'");
+    study.surface_path = fs::absolute(path).lexically_normal().string();
+  }
+  // A few thousand triangles: fine (a/8) where the tool and the local ball are, coarse far away.
+  g.edge_size_m = organ.quantity("edge_size", Dimension::length, g.tool_radius_m / 8);
+  g.size_growth = organ.quantity("size_growth", Dimension::dimensionless, 0.2);
+  g.max_size_m = organ.quantity("max_size", Dimension::length, g.body_radius_m / 10);
+  g.size_exponent = 1.0;
+
+  ConfigTable material = config.table("material");
+  study.material.youngs_modulus_Pa =
+      material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
+  study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
+
+  ConfigTable tool = config.table("tool");
+  study.depth_m = tool.quantity("depth", Dimension::length, 0.1 * g.tool_radius_m);
+  const auto direction = tool.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
+  study.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
+  if (tool.has("point")) {
+    const auto point = tool.vector3("point", Dimension::length, {{0.0, 0.0, 0.0}});
+    study.contact_point_m = Eigen::Vector3d(point[0], point[1], point[2]);
+  }
+  study.contacts.clear();
+  for (const auto& contact : tool.choice_list("contact", names(patch_conditions), {"frictionless"}))
+    study.contacts.push_back(value_of(patch_conditions, contact));
+
+  ConfigTable sprinkling = config.table("sprinkling");
+  mfs::SprinklingSettings& sp = s.sprinkling;
+  study.node_counts.clear();
+  const auto counts = sprinkling.integer_list("node_count", {sp.node_count});
+  for (std::size_t i = 0; i < counts.size(); ++i)
+    study.node_counts.push_back(checked_int(sprinkling.where("node_count") + "[" + std::to_string(i) + "]", counts[i]));
+  sp.local_radius_m = sprinkling.quantity("local_radius", Dimension::length, geometry_l);
+  if (geometry_has_l && sprinkling.has("local_radius") && sp.local_radius_m != geometry_l)
+    throw ConfigError(sprinkling.where("local_radius") + " = " + format_number(sp.local_radius_m) +
+                      " m differs from geometry.local_radius = " + format_number(geometry_l) + " m; keep one");
+  g.local_radius_m = sp.local_radius_m;
+  sp.layout = read_choice(sprinkling, "layout", layouts, sp.layout);
+  sp.ring_nodes = read_int(sprinkling, "ring_nodes", sp.ring_nodes);
+  sp.radius_factor = sprinkling.number("radius_factor", sp.radius_factor);
+  sp.boundary_radius_factor = sprinkling.number("boundary_radius_factor", sp.boundary_radius_factor);
+  sp.outer = read_choice(sprinkling, "outer", outer_conditions, sp.outer);
+  sp.oversampling = sprinkling.number("oversampling", sp.oversampling);
+  sp.tip_node_only = sprinkling.boolean("tip_node_only", sp.tip_node_only);
+  const std::int64_t seed = sprinkling.integer("seed", static_cast<std::int64_t>(sp.seed));
+  if (seed < 0) throw ConfigError(sprinkling.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
+  sp.seed = static_cast<std::uint64_t>(seed);
+
+  ConfigTable collocation = config.table("collocation");
+  s.collocation.scale_rows = collocation.boolean("scale_rows", s.collocation.scale_rows);
+  s.collocation.neumann_stabilization = collocation.number("neumann_stabilization", s.collocation.neumann_stabilization);
+  s.collocation.boundary_row_weight = collocation.number("boundary_row_weight", s.collocation.boundary_row_weight);
+
+  ConfigTable mls = config.table("mls");
+  mfs::MlsSettings& m = s.collocation.mls;
+  m.basis = read_choice(mls, "basis", bases, m.basis);
+  m.weight = read_choice(mls, "weight", weights, m.weight);
+  m.min_rcond = mls.number("min_rcond", m.min_rcond);
+  m.max_support_scale = mls.number("max_support_scale", m.max_support_scale);
+
+  ConfigTable solver = config.table("solver");
+  s.solver.kind = read_choice(solver, "kind", solver_kinds, s.solver.kind);
+  s.solver.gmres_tolerance = solver.number("gmres_tolerance", s.solver.gmres_tolerance);
+  s.solver.gmres_restart = read_int(solver, "gmres_restart", s.solver.gmres_restart);
+  s.solver.gmres_max_iterations = read_int(solver, "gmres_max_iterations", s.solver.gmres_max_iterations);
+  s.solver.max_relative_residual = solver.number("max_relative_residual", s.solver.max_relative_residual);
+  s.solver.ilut_drop_tolerance = solver.number("ilut_drop_tolerance", s.solver.ilut_drop_tolerance);
+  s.solver.ilut_fill_factor = read_int(solver, "ilut_fill_factor", s.solver.ilut_fill_factor);
+
+  ConfigTable force = config.table("force");
+  mfs::ForceSettings& f = s.force;
+  f.patch_radial_points = read_int(force, "patch_radial_points", f.patch_radial_points);
+  f.patch_angular_points = read_int(force, "patch_angular_points", f.patch_angular_points);
+  f.cut_polar_points = read_int(force, "cut_polar_points", f.cut_polar_points);
+  f.cut_azimuth_points = read_int(force, "cut_azimuth_points", f.cut_azimuth_points);
+  f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
+  f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
+  f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
+  f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
+  f.reaction = force.boolean("reaction", f.reaction);
+  f.energy = force.boolean("energy", f.energy);
+
+  ConfigTable output = config.table("output");
+  study.write_vtu = output.boolean("vtu", study.write_vtu);
+
+  sp.node_count = study.node_counts.front();
+  config.finish();
+  try {
+    study.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(config.where("") + e.what());
+  }
+  return study;
+}
+
+std::string resolved_config_toml(const MfsStudy& study) {
+  const mfs::LocalModelSettings& s = study.model;
+  const meshes::MeshParameters& g = study.geometry;
+  const auto array3 = [](const Eigen::Vector3d& v) { return toml::array{v[0], v[1], v[2]}; };
+
+  toml::table geometry{{"benchmark", meshes::to_string(g.benchmark)},
+                       {"body_radius", g.body_radius_m},
+                       {"tool_radius", g.tool_radius_m},
+                       {"contact_polar_angle", g.contact_polar_angle_rad}};
+  toml::table organ;
+  if (study.surface_path.empty()) {
+    organ.insert("edge_size", g.edge_size_m);
+    organ.insert("size_growth", g.size_growth);
+    organ.insert("max_size", g.max_size_m);
+  } else {
+    organ.insert("surface", study.surface_path);
+  }
+  toml::array contacts;
+  for (const auto c : study.contacts) contacts.push_back(name_of(patch_conditions, c));
+  toml::table tool{{"depth", study.depth_m}, {"direction", array3(study.direction)}, {"contact", contacts}};
+  if (study.contact_point_m) tool.insert("point", array3(*study.contact_point_m));
+  toml::array node_counts;
+  for (const int n : study.node_counts) node_counts.push_back(n);
+  const mfs::SprinklingSettings& sp = s.sprinkling;
+  const mfs::ForceSettings& f = s.force;
+  const mfs::MlsSettings& m = s.collocation.mls;
+  toml::table document{
+      {"study", study.name},
+      {"paper_mode", s.paper_mode},
+      {"geometry", geometry},
+      {"organ", organ},
+      {"material", toml::table{{"youngs_modulus", study.material.youngs_modulus_Pa}, {"poisson_ratio", study.material.poisson_ratio}}},
+      {"tool", tool},
+      {"sprinkling", toml::table{{"node_count", node_counts},
+                                 {"local_radius", sp.local_radius_m},
+                                 {"layout", name_of(layouts, sp.layout)},
+                                 {"ring_nodes", sp.ring_nodes},
+                                 {"radius_factor", sp.radius_factor},
+                                 {"boundary_radius_factor", sp.boundary_radius_factor},
+                                 {"outer", name_of(outer_conditions, sp.outer)},
+                                 {"oversampling", sp.oversampling},
+                                 {"tip_node_only", sp.tip_node_only},
+                                 {"seed", static_cast<std::int64_t>(sp.seed)}}},
+      {"collocation", toml::table{{"scale_rows", s.collocation.scale_rows},
+                                  {"neumann_stabilization", s.collocation.neumann_stabilization},
+                                  {"boundary_row_weight", s.collocation.boundary_row_weight}}},
+      {"mls", toml::table{{"basis", name_of(bases, m.basis)},
+                          {"weight", name_of(weights, m.weight)},
+                          {"min_rcond", m.min_rcond},
+                          {"max_support_scale", m.max_support_scale}}},
+      {"solver", toml::table{{"kind", name_of(solver_kinds, s.solver.kind)},
+                             {"gmres_tolerance", s.solver.gmres_tolerance},
+                             {"gmres_restart", s.solver.gmres_restart},
+                             {"gmres_max_iterations", s.solver.gmres_max_iterations},
+                             {"max_relative_residual", s.solver.max_relative_residual},
+                             {"ilut_drop_tolerance", s.solver.ilut_drop_tolerance},
+                             {"ilut_fill_factor", s.solver.ilut_fill_factor}}},
+      {"force", toml::table{{"patch_radial_points", f.patch_radial_points},
+                            {"patch_angular_points", f.patch_angular_points},
+                            {"cut_polar_points", f.cut_polar_points},
+                            {"cut_azimuth_points", f.cut_azimuth_points},
+                            {"volume_radial_points", f.volume_radial_points},
+                            {"volume_polar_points", f.volume_polar_points},
+                            {"volume_azimuth_points", f.volume_azimuth_points},
+                            {"haptic_method", name_of(force_methods, f.haptic_method)},
+                            {"reaction", f.reaction},
+                            {"energy", f.energy}}},
+      {"output", toml::table{{"vtu", study.write_vtu}}}};
+  std::ostringstream text;
+  text << "# " << study.name << ", resolved by `touchstone mfs`: every default filled in, quantities in SI (m, Pa, rad).\n"
+       << document << "\n";
+  return text.str();
+}
+
+nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options) {
+  study.validate();
+  const auto start = std::chrono::steady_clock::now();
+  fs::create_directories(options.output_directory);
+  write_file_atomically(options.output_directory + "/config.resolved.toml", resolved_config_toml(study));
+
+  const Organ organ = load_organ(study, options.output_directory);
+  if (!options.quiet)
+    std::printf("organ: %s, %zu triangles (%.2f s)\n", organ.info.at("path").get<std::string>().c_str(),
+                organ.info.at("triangles").get<std::size_t>(), organ.info.at("time_s").get<double>());
+
+  json document{{"study", study.name},
+                {"provenance", provenance(options.config_text)},
+                {"config_resolved", "config.resolved.toml"},
+                {"organ", organ.info},
+                {"cases", json::array()}};
+  const CaseRunner runner(study, organ, options);
+  const std::size_t total = study.contacts.size() * study.node_counts.size();
+  std::size_t done = 0;
+  const Eigen::Vector3d d = study.direction.normalized();
+  for (const auto contact : study.contacts)
+    for (const int n : study.node_counts) {
+      json c = runner.run(contact, n);
+      ++done;
+      if (!options.quiet) {
+        const double elapsed = seconds_since(start);
+        const json& force = c.at("qoi").at("force_N");
+        std::printf("[%zu/%zu] %-26s N = %-5s F·d = %s N  build %.1f ms  %s  (elapsed %.1f s, ~%.0f s left)\n", done,
+                    total, c.at("id").get<std::string>().c_str(), c.at("params").at("node_count").dump().c_str(),
+                    force.is_array() ? format_number(axial_or_nan(force, d)).c_str() : "-",
+                    1e3 * c.at("time_s").at("build").get<double>(), c.at("status").get<std::string>().c_str(), elapsed,
+                    elapsed / done * (total - done));
+        std::fflush(stdout);
+      }
+      document["cases"].push_back(std::move(c));
+    }
+  write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");
+  if (!options.quiet) print_table(document["cases"], d);
+  return document;
+}
+
+}  // namespace touchstone::studies

@@ -1,0 +1,167 @@
+// Issue acceptance 4: the traction rows carry a load. A uniform pressure p on a disk of radius
+// a on the flat face of a large body: the half-space answer is w(0) = 2(1−ν²) p a / E at the
+// centre and w̄ = 16(1−ν²) p a / (3πE) on average over the disk (Johnson, Contact Mechanics
+// §3.4). The local domain is the body ∩ ball(centre, L = 10a); the cut surface carries the
+// Boussinesq point-load field of the total force P = π a² p, which differs from the disk
+// load's field by O((a/L)²) there, so the local problem is the half-space problem.
+//
+// A second, smooth check: the Boussinesq field of a point force a above the surface is an exact
+// solution of the Navier equations in the body; its tractions on the face and its values on the
+// cut are the data, and the centre deflection is compared.
+//
+// Label open_acceptance: these assert the issue's targets and FAIL today (measured below); they
+// are kept out of the default run until the engine meets them (ctest -L open_acceptance).
+#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/linear_solvers.hpp"
+#include "touchstone/realtime/mfs/node_sprinkling.hpp"
+#include "touchstone/realtime/mfs/tool_force.hpp"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <string>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+constexpr double box_m = 0.1, a_m = 0.0025, pressure_Pa = 100.0;
+
+const geometry::TriangleSurface& box() {
+  static const geometry::TriangleSurface surface = [] {
+    meshes::MeshParameters g;
+    g.benchmark = meshes::Benchmark::Box;
+    g.box_size_m = {box_m, box_m, box_m};
+    g.edge_size_m = 0.01;
+    const std::string path = "uniform_pressure_box_" + std::to_string(getpid()) + ".msh";
+    meshes::generate_mesh(g, path);
+    return geometry::TriangleSurface::from_msh(path);
+  }();
+  return surface;
+}
+
+/// Boussinesq: point force P into a half-space z' ≥ 0 (depth z' = top − z), at the origin x₀.
+Eigen::Vector3d boussinesq(const Material& m, double force_N, const Eigen::Vector3d& origin, const Eigen::Vector3d& x) {
+  const Eigen::Vector3d d = x - origin;
+  const double depth = -d.z(), rho = d.norm();
+  const double c = force_N * (1 + m.poisson_ratio) / (2 * pi * m.youngs_modulus_Pa);
+  const double radial = c * (depth / (rho * rho * rho) - (1 - 2 * m.poisson_ratio) / (rho * (rho + depth)));
+  const double down = c * (depth * depth / (rho * rho * rho) + 2 * (1 - m.poisson_ratio) / rho);
+  return {radial * d.x(), radial * d.y(), -down};
+}
+
+struct Deflection {
+  double centre_m = 0, mean_m = 0;
+};
+
+/// Rows: pressure on the patch (half on the edge ring), traction-free elsewhere on the face,
+/// Boussinesq on the cut; solves and returns the downward deflection (positive).
+enum class Load { uniform_disk, point_force_above };
+
+Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
+  ToolContact contact;
+  contact.point = {0.5 * box_m, 0.5 * box_m, box_m};
+  contact.radius_m = a_m;
+  SprinklingSettings settings;
+  settings.node_count = node_count;
+  settings.local_radius_m = 10 * a_m;
+  settings.oversampling = oversampling;
+  settings.radius_factor = 3.0;
+  settings.boundary_radius_factor = 3.6;
+  NodeCloud cloud = sprinkle_nodes(box(), contact, settings);
+  const double force_N = pi * a_m * a_m * pressure_Pa;
+  const auto load = [&](NodeKind kind, const Eigen::Vector3d& x, const Eigen::Vector3d& n,
+                        std::array<CollocationRow, 3>& rows) {
+    if (load_case == Load::point_force_above) {  // exact smooth solution: Boussinesq from a point a above the surface
+      const Eigen::Vector3d origin = contact.point + Eigen::Vector3d(0, 0, a_m);
+      const auto field = [&](const Eigen::Vector3d& y) { return boussinesq(m, force_N, origin, y); };
+      Eigen::Matrix3d g;
+      const double h = 1e-6;
+      for (int k = 0; k < 3; ++k) g.col(k) = (field(x + h * Eigen::Vector3d::Unit(k)) - field(x - h * Eigen::Vector3d::Unit(k))) / (2 * h);
+      const Eigen::Matrix3d e = 0.5 * (g + g.transpose());
+      const Eigen::Vector3d t = (m.lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * e) * n;
+      for (int k = 0; k < 3; ++k) {
+        rows[k].direction = Eigen::Vector3d::Unit(k);
+        rows[k].tool.setZero();
+        if (kind == NodeKind::cut) { rows[k].type = CollocationRow::Type::dirichlet; rows[k].value = field(x)[k]; }
+        else if (kind != NodeKind::interior) { rows[k].type = CollocationRow::Type::traction; rows[k].value = t[k]; }
+      }
+      return;
+    }
+    if (kind != NodeKind::tool_patch && kind != NodeKind::cut) return;
+    const double r = (x - contact.point).norm();
+    const double on_edge = std::abs(r - a_m) < 1e-3 * a_m ? 0.5 : 1.0;
+    for (int k = 0; k < 3; ++k) {
+      rows[k].direction = Eigen::Vector3d::Unit(k);
+      rows[k].tool.setZero();
+      if (kind == NodeKind::tool_patch) {
+        rows[k].type = CollocationRow::Type::traction;
+        rows[k].value = -on_edge * pressure_Pa * n[k];
+      } else {
+        rows[k].type = CollocationRow::Type::dirichlet;
+        rows[k].value = boussinesq(m, force_N, contact.point, x)[k];
+      }
+    }
+  };
+  for (std::size_t j = 0; j < cloud.size(); ++j) load(cloud.kinds[j], cloud.positions[j], cloud.normals[j], cloud.rows[j]);
+  for (CollocationPoint& p : cloud.extra_points) load(p.kind, p.position, p.normal, p.rows);
+
+  CollocationSettings collocation;
+  collocation.mls.max_support_scale = 1.5;
+  CollocationSystem system;
+  assemble_collocation(cloud, m, collocation, system);
+  EXPECT_TRUE(system.status.ok()) << "point " << system.status.node;
+  CollocationSolver solver;
+  EXPECT_TRUE(solver.factorize(system.stiffness).ok);
+  Eigen::MatrixXd parameters;
+  EXPECT_TRUE(solver.solve(system.constant_rhs, parameters).ok);
+
+  Deflection w;
+  MlsEvaluation scratch;
+  Eigen::Vector3d u;
+  EXPECT_EQ(evaluate_displacement(cloud, parameters.col(0), contact.point, collocation.mls, scratch, u), MlsStatus::ok);
+  w.centre_m = -u.z();
+  const PatchQuadrature disk = patch_quadrature(box(), contact, 16, 32);
+  double area = 0;
+  for (std::size_t q = 0; q < disk.points.size(); ++q) {
+    EXPECT_EQ(evaluate_displacement(cloud, parameters.col(0), disk.points[q], collocation.mls, scratch, u), MlsStatus::ok);
+    w.mean_m -= disk.weights[q] * u.z();
+    area += disk.weights[q];
+  }
+  w.mean_m /= area;
+  return w;
+}
+
+TEST(UniformPressure, DiskDeflectionMatchesTheHalfSpace) {
+  const Material m{10.0e3, 0.45};
+  const double centre = 2 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / m.youngs_modulus_Pa;
+  const double mean = 16 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / (3 * pi * m.youngs_modulus_Pa);
+  // Measured (oversampling 3): centre −72 %, −73 %, −43 % at N = 200, 400, 800.
+  for (const int n : {200, 400, 800}) {
+    const Deflection w = solve(m, n, 3.0, Load::uniform_disk);
+    std::printf("  N = %d: centre %.4e m (%+.2f %%), mean %.4e m (%+.2f %%)\n", n, w.centre_m,
+                100 * (w.centre_m / centre - 1), w.mean_m, 100 * (w.mean_m / mean - 1));
+    if (n == 800) {
+      EXPECT_NEAR(w.centre_m / centre, 1.0, 0.05) << "centre deflection, N = " << n;
+      EXPECT_NEAR(w.mean_m / mean, 1.0, 0.05) << "mean deflection, N = " << n;
+    }
+  }
+}
+
+TEST(UniformPressure, SmoothPointForceFieldIsReproduced) {
+  const Material m{10.0e3, 0.45};
+  const Eigen::Vector3d top(0.5 * box_m, 0.5 * box_m, box_m);
+  const double centre = -boussinesq(m, pi * a_m * a_m * pressure_Pa, top + Eigen::Vector3d(0, 0, a_m), top).z();
+  // Measured (oversampling 3): −36 %, −30 %, −29 % at N = 200, 400, 800.
+  for (const int n : {200, 400, 800}) {
+    const Deflection w = solve(m, n, 3.0, Load::point_force_above);
+    std::printf("  N = %d: centre %.4e m (%+.2f %%)\n", n, w.centre_m, 100 * (w.centre_m / centre - 1));
+    if (n == 800) EXPECT_NEAR(w.centre_m / centre, 1.0, 0.02) << "N = " << n;
+  }
+}
+
+}  // namespace
+}  // namespace touchstone::realtime::mfs

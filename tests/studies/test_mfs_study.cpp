@@ -1,0 +1,270 @@
+// `touchstone mfs` end to end on a tiny sweep (N = 34, 60 on the B2 hemisphere): the
+// results.json contract of DESIGN.md §8, the resolved config, the VTU files, and config errors
+// that name the file and the key or field.
+#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/provenance.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+namespace touchstone::studies {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// A coarse organ surface keeps gmsh quick; the local ball is still a few hundred triangles.
+const std::string tiny_config = R"(
+study = "tiny_mfs"
+[geometry]
+benchmark = "B2"
+body_radius = "50 mm"
+tool_radius = "2.5 mm"
+[organ]
+edge_size = "0.5 mm"
+size_growth = 0.3
+max_size = "8 mm"
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+depth = "0.25 mm"
+contact = "frictionless"
+[sprinkling]
+node_count = [34, 60]
+local_radius = "12.5 mm"
+[force]
+cut_polar_points = 12
+cut_azimuth_points = 24
+volume_radial_points = 8
+volume_polar_points = 12
+volume_azimuth_points = 16
+[mls]
+max_support_scale = 2.0   # 34 nodes with the quadratic basis need the supports to grow near the cut
+)";
+
+// The pid keeps parallel test processes (ctest -j runs each test in its own) apart.
+fs::path temp_directory() {
+  static const fs::path path = fs::temp_directory_path() / ("touchstone_test_mfs_study_" + std::to_string(getpid()));
+  return path;
+}
+
+class RemoveTemporaries : public ::testing::Environment {
+ public:
+  void TearDown() override { fs::remove_all(temp_directory()); }
+};
+const auto* const remove_temporaries = ::testing::AddGlobalTestEnvironment(new RemoveTemporaries);
+
+/// Reads `text` as a config named `name`; the ConfigError message, or "" when it is valid.
+std::string config_error(const std::string& text, const std::string& name = "bad.toml") {
+  try {
+    ConfigTable config = ConfigTable::from_string(text, name);
+    read_mfs_study(config, temp_directory().string());
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// tiny_config with `from` replaced by `to` (which must occur).
+std::string edited(const std::string& from, const std::string& to) {
+  std::string text = tiny_config;
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+class MfsStudyRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    fs::remove_all(temp_directory());
+    fs::create_directories(temp_directory());
+    const fs::path config_path = temp_directory() / "tiny_mfs.toml";
+    write_file_atomically(config_path.string(), tiny_config);
+    ConfigTable config = ConfigTable::from_file(config_path.string());
+    const MfsStudy study = read_mfs_study(config, temp_directory().string());
+    MfsRunOptions options;
+    options.output_directory = output().string();
+    options.config_text = tiny_config;
+    options.quiet = true;
+    *returned = run_mfs_study(study, options);
+  }
+  static fs::path output() { return temp_directory() / "out"; }
+  static inline json* returned = new json;
+};
+
+TEST_F(MfsStudyRun, ResultsJsonCarriesTheContract) {
+  const json document = json::parse(read_file((output() / "results.json").string()));
+  EXPECT_EQ(document, *returned);
+  EXPECT_EQ(document.at("study"), "tiny_mfs");
+  for (const char* key : {"git", "build_type", "compiler", "machine", "config_sha256"})
+    EXPECT_TRUE(document.at("provenance").contains(key)) << key;
+  EXPECT_EQ(document.at("provenance").at("config_sha256"), sha256_hex(tiny_config));
+  EXPECT_GT(document.at("organ").at("triangles").get<int>(), 500);
+
+  const json& cases = document.at("cases");
+  ASSERT_EQ(cases.size(), 2u);
+  const int requested[] = {34, 60};
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const json& c = cases[i];
+    SCOPED_TRACE(c.dump().substr(0, 400));
+    EXPECT_EQ(c.at("id"), "MFS-frictionless-N" + std::to_string(requested[i]));
+    EXPECT_EQ(c.at("model"), "mfs");
+    EXPECT_EQ(c.at("status"), "ok");
+    EXPECT_TRUE(c.at("reference").is_null());
+    for (const char* key : {"force_rel", "disp_rel_l2", "disp_max_m"}) EXPECT_TRUE(c.at("error").contains(key)) << key;
+    for (const char* key : {"build", "solve", "total", "sprinkle", "assembly", "factorize", "condense", "force"}) {
+      ASSERT_TRUE(c.at("time_s").at(key).is_number()) << key;
+      EXPECT_GE(c.at("time_s").at(key).get<double>(), 0.0) << key;
+    }
+
+    const json& params = c.at("params");
+    EXPECT_EQ(params.at("node_count_requested"), requested[i]);
+    // The sprinkler lands within a few per cent of the target N.
+    EXPECT_NEAR(params.at("node_count").get<double>(), requested[i], 0.25 * requested[i]);
+    for (const char* key : {"extra_points", "basis", "oversampling", "radius_factor", "local_radius_m"})
+      EXPECT_TRUE(params.contains(key)) << key;
+    EXPECT_DOUBLE_EQ(params.at("local_radius_m").get<double>(), 0.0125);
+
+    const json& qoi = c.at("qoi");
+    ASSERT_EQ(qoi.at("force_N").size(), 3u);
+    for (const auto& component : qoi.at("force_N")) EXPECT_TRUE(component.is_number());
+    // The force's accuracy is the engine's business (and the study runner's, against the FEM);
+    // here: it is a number, and the stiffness is |F·d|/δ with d = −z.
+    const double f_z = qoi.at("force_N").at(2).get<double>();
+    EXPECT_GT(std::abs(f_z), 0.0);
+    EXPECT_NEAR(qoi.at("stiffness_N_per_m").get<double>(), std::abs(f_z) / 0.00025, 1e-9 * std::abs(f_z) / 0.00025);
+    EXPECT_GT(qoi.at("energy_J").get<double>(), 0.0);
+    EXPECT_NEAR(qoi.at("k_star").get<double>(), -f_z / (10e3 * 0.0025 * 0.00025), 1e-9 * std::abs(qoi.at("k_star").get<double>()));
+    const json& by_method = qoi.at("forces_by_method_N");
+    for (const char* method : {"traction_integral", "reaction", "paper_partition"}) {
+      ASSERT_EQ(by_method.at(method).size(), 3u) << method;
+      for (const auto& component : by_method.at(method)) EXPECT_TRUE(component.is_number()) << method;
+    }
+    EXPECT_TRUE(by_method.at("energy_along_tool").is_number());
+    // The haptic force is K_t U_tool by the traction integral (the default method).
+    EXPECT_NEAR(by_method.at("traction_integral").at(2).get<double>(), f_z, 1e-9 * std::abs(f_z));
+    ASSERT_EQ(qoi.at("tool_stiffness_matrix_N_per_m").size(), 3u);
+    EXPECT_GT(qoi.at("min_rcond").get<double>(), 0.0);
+
+    // Probes inside the local ball only (0.9 L = 11.25 mm from the contact point).
+    const json& probes = qoi.at("probes");
+    ASSERT_FALSE(probes.empty());
+    for (const auto& probe : probes) {
+      const json& p = probe.at("position_m");
+      const double distance = std::hypot(p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>() - 0.05);
+      EXPECT_LT(distance, 0.9 * 0.0125) << probe.at("name");
+      ASSERT_TRUE(probe.at("displacement_m").is_array()) << probe.at("name");
+    }
+    EXPECT_EQ(probes.front().at("name"), "axis_0.25a");
+    // Just under the tool the tissue moves down by about δ.
+    EXPECT_NEAR(probes.front().at("displacement_m").at(2).get<double>(), -0.00025, 0.5 * 0.00025);
+
+    EXPECT_EQ(c.at("vtu"), c.at("id").get<std::string>() + ".vtu");
+    EXPECT_TRUE(fs::is_regular_file(output() / c.at("vtu").get<std::string>()));
+  }
+  EXPECT_EQ(document.dump().find("NaN"), std::string::npos);
+}
+
+TEST_F(MfsStudyRun, ResolvedConfigReadsBackToTheSameStudy) {
+  const std::string resolved = read_file((output() / "config.resolved.toml").string());
+  ConfigTable config = ConfigTable::from_string(resolved, "config.resolved.toml");
+  const MfsStudy study = read_mfs_study(config);
+  EXPECT_EQ(resolved_config_toml(study), resolved);
+  EXPECT_EQ(study.node_counts, (std::vector<int>{34, 60}));
+  EXPECT_DOUBLE_EQ(study.material.youngs_modulus_Pa, 10e3);
+  EXPECT_EQ(study.model.force.cut_polar_points, 12);
+}
+
+// A case that cannot be built (here: the tool point is off the organ) is recorded, not fatal,
+// and its numbers are null, never NaN.
+TEST(MfsStudyFailure, FailedCaseHasAStatusAndNoNumbers) {
+  ConfigTable config = ConfigTable::from_string(
+      edited("contact = \"frictionless\"", "contact = \"bonded\"\npoint = [\"0 mm\", \"0 mm\", \"60 mm\"]"),
+      "off_surface.toml");
+  MfsStudy study = read_mfs_study(config);
+  study.node_counts = {34};
+  MfsRunOptions options;
+  options.output_directory = (temp_directory() / "failure").string();
+  options.quiet = true;
+  const json document = run_mfs_study(study, options);
+  ASSERT_EQ(document.at("cases").size(), 1u);
+  const json& c = document.at("cases").at(0);
+  EXPECT_EQ(c.at("id"), "MFS-bonded-N34");
+  const std::string status = c.at("status");
+  EXPECT_NE(status, "ok");
+  EXPECT_NE(status.find("ToolContact.point"), std::string::npos) << status;
+  EXPECT_TRUE(c.at("qoi").at("force_N").is_null());
+  EXPECT_TRUE(c.at("qoi").at("stiffness_N_per_m").is_null());
+  EXPECT_TRUE(c.at("vtu").is_null());
+  const std::string text = read_file(options.output_directory + "/results.json");
+  EXPECT_EQ(text.find("NaN"), std::string::npos);
+  EXPECT_EQ(json::parse(text), document);
+}
+
+TEST(MfsStudyConfig, UnknownKeyNamesFileAndKey) {
+  const std::string message = config_error(edited("local_radius =", "local_radus ="), "tiny_mfs.toml");
+  EXPECT_NE(message.find("tiny_mfs.toml"), std::string::npos) << message;
+  EXPECT_NE(message.find("sprinkling.local_radus"), std::string::npos) << message;
+  EXPECT_NE(message.find("did you mean 'sprinkling.local_radius'"), std::string::npos) << message;
+}
+
+TEST(MfsStudyConfig, BadValuesNameTheField) {
+  std::string message = config_error(edited("node_count = [34, 60]", "node_count = 5"));
+  EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
+  EXPECT_NE(message.find("node_count"), std::string::npos) << message;
+
+  message = config_error(edited("node_count = [34, 60]", "node_count = [34, 5]"));
+  EXPECT_NE(message.find("node_count"), std::string::npos) << message;
+
+  message = config_error(edited("youngs_modulus = \"10 kPa\"", "youngs_modulus = \"-1 kPa\""));
+  EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
+  EXPECT_NE(message.find("youngs_modulus"), std::string::npos) << message;
+
+  message = config_error(edited("youngs_modulus = \"10 kPa\"", "youngs_modulus = \"10 kN\""));
+  EXPECT_NE(message.find("material.youngs_modulus"), std::string::npos) << message;
+
+  message = config_error(edited("[mls]", "[mls]\nbasis = \"cubic\""));
+  EXPECT_NE(message.find("mls.basis"), std::string::npos) << message;
+
+  message = config_error(edited("[force]", "[force]\nhaptic_method = \"energy\""));
+  EXPECT_NE(message.find("haptic_method"), std::string::npos) << message;
+
+  message = config_error(edited("local_radius = \"12.5 mm\"", "local_radius = \"4 mm\""));
+  EXPECT_NE(message.find("local_radius"), std::string::npos) << message;
+
+  message = config_error("paper_mode = true\n[model]\npaper_mode = true\n");
+  EXPECT_NE(message.find("paper_mode"), std::string::npos) << message;
+}
+
+TEST(MfsStudyConfig, SurfacePathIsRelativeToTheConfigFolder) {
+  fs::create_directories(temp_directory() / "organs");
+  write_file_atomically((temp_directory() / "organs" / "liver.msh").string(), "not read before the run\n");
+  ConfigTable config = ConfigTable::from_string("[organ]\nsurface = \"organs/liver.msh\"\n", "organ.toml");
+  const MfsStudy study = read_mfs_study(config, temp_directory().string());
+  EXPECT_EQ(fs::path(study.surface_path), fs::absolute(temp_directory() / "organs" / "liver.msh").lexically_normal());
+
+  const std::string message = config_error("[organ]\nsurface = \"organs/kidney.msh\"\n");
+  EXPECT_NE(message.find("organ.surface"), std::string::npos) << message;
+  EXPECT_NE(message.find("kidney.msh"), std::string::npos) << message;
+}
+
+TEST(MfsStudyConfig, PaperModeTakesThePapersDefaults) {
+  ConfigTable config = ConfigTable::from_string("paper_mode = true\n", "paper.toml");
+  const MfsStudy study = read_mfs_study(config);
+  EXPECT_TRUE(study.model.paper_mode);
+  EXPECT_EQ(study.node_counts, (std::vector<int>{34}));
+  EXPECT_EQ(study.model.collocation.mls.basis, realtime::mfs::Basis::linear);
+  EXPECT_EQ(study.model.force.haptic_method, realtime::mfs::ForceMethod::paper_partition);
+}
+
+}  // namespace
+}  // namespace touchstone::studies
