@@ -299,7 +299,9 @@ class CaseRunner {
     for (const auto kind : cloud.kinds) ++kinds[static_cast<int>(kind)];
     params["nodes_by_kind"] = {{"interior", kinds[0]}, {"free_surface", kinds[1]}, {"tool_patch", kinds[2]}, {"cut", kinds[3]}};
     c["qoi"]["min_rcond"] = number(model.system.status.min_rcond);
-    c["diagnostics"] = {{"max_support_scale_used", number(model.system.status.max_support_scale)}};
+    c["diagnostics"] = {{"max_support_scale_used", number(model.system.status.max_support_scale)},
+                        {"max_neighbours", model.system.status.max_neighbours},
+                        {"mean_neighbours", number(model.system.status.mean_neighbours)}};
     json& time = c["time_s"];
     time["sprinkle"] = model.times.sprinkle_s;
     time["assembly"] = model.times.assembly_s;

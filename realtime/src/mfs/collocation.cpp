@@ -87,6 +87,8 @@ void assemble_collocation(const NodeCloud& cloud, const Material& material, cons
     evaluate_mls(x, cloud.positions, cloud.radii, all_nodes, settings.mls, derivatives, mls);
     system.status.min_rcond = std::min(system.status.min_rcond, mls.rcond);
     system.status.max_support_scale = std::max(system.status.max_support_scale, mls.support_scale);
+    system.status.max_neighbours = std::max(system.status.max_neighbours, static_cast<int>(mls.neighbours.size()));
+    system.status.mean_neighbours += static_cast<double>(mls.neighbours.size()) / points;
     if (mls.status != MlsStatus::ok) {
       system.status.mls = mls.status;
       system.status.node = index;

@@ -39,6 +39,10 @@ struct AssemblyStatus {
   int node = -1;       ///< first collocation point whose shape functions failed (N + m: extra point m)
   double min_rcond = 1;  ///< smallest rcond(A) over all collocation points
   double max_support_scale = 1;  ///< largest adaptive support growth used (1: none)
+  /// Nodes in the support of a collocation point: the MLS fit averages over these. Hundreds
+  /// mean coarse nodes' supports cover the point and the fit is smoothed (a sprinkling problem).
+  int max_neighbours = 0;
+  double mean_neighbours = 0;
   bool ok() const { return mls == MlsStatus::ok; }
 };
 
