@@ -458,16 +458,30 @@ TEST(LocalModel, ToolStiffnessIsTheCondensation) {
     expect_doubled(solution.forces.paper_partition_N, twice.forces.paper_partition_N, "paper");
     expect_doubled(solution.forces.haptic_N, twice.forces.haptic_N, "haptic");
   }
-  // Pushing into the tissue takes positive work: d·K_t d > 0. Fragile (measured): this is
-  // +48 N/m here, but −7 N/m with the same settings on the same hemisphere meshed coarser away
-  // from the contact (size_growth 0.5, max_size_m 0.008): square point collocation at N ≈ 60 is
-  // not stable enough for its sign to be a property of the model rather than of the cloud.
+  // Pushing into the tissue takes positive work, d·K_t d > 0, but square point collocation does
+  // not guarantee it (measured: +48 N/m here, −7 N/m on the same hemisphere meshed coarser
+  // away from the contact): printed, not asserted. The least-squares default is asserted below.
   const Eigen::Vector3d d = pole_contact().direction;
   std::printf("  N = %d, K_t d.d = %.4e N/m, K_t =\n", static_cast<int>(n), d.dot(model.tool_stiffness_N_per_m * d));
   for (int r = 0; r < 3; ++r)
     std::printf("    %12.4e %12.4e %12.4e\n", model.tool_stiffness_N_per_m(r, 0), model.tool_stiffness_N_per_m(r, 1),
                 model.tool_stiffness_N_per_m(r, 2));
-  EXPECT_GT(d.dot(model.tool_stiffness_N_per_m * d), 0);
+}
+
+// With the default least-squares collocation the sign of the tool stiffness is stable as the
+// cloud changes (square collocation flips it: README, "Measured (MFS)").
+TEST(LocalModel, LeastSquaresToolStiffnessIsPositive) {
+  for (const int n : {34, 60, 100}) {
+    LocalModelSettings settings = small_settings();
+    settings.sprinkling.node_count = n;
+    settings.force.reaction = false;
+    const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+    ASSERT_TRUE(model.ok()) << model.status;
+    const Eigen::Vector3d d = pole_contact().direction;
+    const double stiffness = d.dot(model.tool_stiffness_N_per_m * d);
+    std::printf("  N = %zu (+%zu points): K_t d.d = %.4e N/m\n", model.cloud.size(), model.cloud.extra_points.size(), stiffness);
+    EXPECT_GT(stiffness, 0) << "N = " << n;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
