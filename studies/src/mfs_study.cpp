@@ -196,6 +196,8 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"direction", vector_json(contact.direction)},
           {"contact", name_of(patch_conditions, contact.condition)},
           {"paper_mode", s.paper_mode},
+          {"formulation", mfs::to_string(s.formulation)},
+          {"penalty_factor", s.galerkin.penalty_factor},
           {"local_radius_m", sp.local_radius_m},
           {"layout", name_of(layouts, sp.layout)},
           {"ring_nodes", sp.ring_nodes},
@@ -477,6 +479,17 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   mfs::LocalModelSettings& s = study.model;
   s = paper_mode ? mfs::paper_settings() : mfs::LocalModelSettings{};
   s.paper_mode = paper_mode;
+  // Strong form at points (the paper) or weak form (De & Bathe's MFS); Galerkin's tool force is
+  // the reaction, so that becomes its default haptic method.
+  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, "collocation") == "galerkin"
+                      ? mfs::Formulation::galerkin
+                      : mfs::Formulation::collocation;
+  if (s.formulation == mfs::Formulation::galerkin) {
+    s.force.haptic_method = mfs::ForceMethod::reaction;
+    s.sprinkling.oversampling = 1;
+  }
+  ConfigTable galerkin = config.table("galerkin");
+  s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
 
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
@@ -622,6 +635,8 @@ std::string resolved_config_toml(const MfsStudy& study) {
   toml::table document{
       {"study", study.name},
       {"paper_mode", s.paper_mode},
+      {"formulation", mfs::to_string(s.formulation)},
+      {"galerkin", toml::table{{"penalty_factor", s.galerkin.penalty_factor}}},
       {"geometry", geometry},
       {"organ", organ},
       {"material", toml::table{{"youngs_modulus", study.material.youngs_modulus_Pa}, {"poisson_ratio", study.material.poisson_ratio}}},

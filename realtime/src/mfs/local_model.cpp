@@ -1,5 +1,6 @@
 #include "touchstone/realtime/mfs/local_model.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/SparseLU>
 
 #include <chrono>
@@ -69,6 +70,10 @@ bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& uni
 
 }  // namespace
 
+std::string to_string(Formulation formulation) {
+  return formulation == Formulation::galerkin ? "galerkin" : "collocation";
+}
+
 std::string to_string(ForceMethod method) {
   switch (method) {
     case ForceMethod::traction_integral: return "traction_integral";
@@ -113,6 +118,11 @@ void LocalModelSettings::validate() const {
   if (!(collocation.mls.max_support_scale >= 1 && collocation.mls.max_support_scale <= 4))
     throw std::invalid_argument("MlsSettings.max_support_scale = " + std::to_string(collocation.mls.max_support_scale) +
                                 " must be in [1, 4]");
+  galerkin.validate();
+  if (paper_mode && formulation == Formulation::galerkin)
+    throw std::invalid_argument("paper_mode with formulation = galerkin: the paper's model is point collocation");
+  if (formulation == Formulation::galerkin && !force.reaction)
+    throw std::invalid_argument("ForceSettings.reaction = false with formulation = galerkin: the tool force is the reaction");
   if (paper_mode && sprinkling.oversampling > 1)
     throw std::invalid_argument("paper_mode with sprinkling.oversampling = " + std::to_string(sprinkling.oversampling) +
                                 ": the paper's partition (eq. 7) needs square collocation");
@@ -129,6 +139,73 @@ LocalModelSettings paper_settings() {
   return s;
 }
 
+namespace {
+
+/// The Galerkin branch of build_local_model: quadratures first (the stiffness is an integral),
+/// then K, LDLT, the unit responses and the penalty force maps.
+LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel model,
+                          std::chrono::steady_clock::time_point start) {
+  const LocalModelSettings& settings = model.settings;
+  const ForceSettings& f = settings.force;
+  const auto fail = [&](std::string why) {
+    model.status = std::move(why);
+    model.times.total_s = seconds_since(start);
+    return std::move(model);
+  };
+  auto step = std::chrono::steady_clock::now();
+  const double length = settings.sprinkling.local_radius_m;
+  model.volume = volume_quadrature(organ, model.contact, length, f.volume_radial_points, f.volume_polar_points,
+                                   f.volume_azimuth_points);
+  const PatchQuadrature patch = patch_quadrature(organ, model.contact, f.patch_radial_points, f.patch_angular_points);
+  const PatchQuadrature cut = cut_quadrature(organ, model.contact, length, f.cut_polar_points, f.cut_azimuth_points);
+  GalerkinSettings galerkin = settings.galerkin;
+  galerkin.mls = settings.collocation.mls;
+  model.galerkin = assemble_galerkin(model.cloud, model.material, model.contact, model.volume, patch, cut, galerkin);
+  model.times.assembly_s = seconds_since(step);
+  if (model.galerkin.status != MlsStatus::ok)
+    return fail(std::string("shape functions failed (") + to_string(model.galerkin.status) + ") at quadrature point " +
+                std::to_string(model.galerkin.failed_point));
+
+  step = std::chrono::steady_clock::now();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(model.galerkin.stiffness);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return fail("the Galerkin stiffness is not positive definite");
+  model.unit_response = ldlt.solve(Eigen::MatrixXd(model.galerkin.tool_rhs));
+  const double residual = (model.galerkin.stiffness * model.unit_response - model.galerkin.tool_rhs).norm() /
+                          model.galerkin.tool_rhs.norm();
+  if (!model.unit_response.allFinite() || !(residual <= settings.solver.max_relative_residual))
+    return fail("the Galerkin stiffness is singular or too ill-conditioned: relative residual " + std::to_string(residual));
+  model.load_response.setZero(model.unit_response.rows());
+  model.times.factorize_s = seconds_since(step);
+
+  step = std::chrono::steady_clock::now();
+  const MlsSettings& mls = settings.collocation.mls;
+  if (!surface_traction_map(model.cloud, model.material, mls, patch, model.traction_map))
+    return fail("a tool-patch quadrature point is outside every support");
+  model.reaction_map = model.galerkin.cut_map;  // minus the cut's penalty force on the tissue
+  PatchQuadrature nodes;
+  const std::vector<double> area = tributary_areas(model.cloud, patch);
+  for (std::size_t j = 0; j < model.cloud.size(); ++j)
+    if (model.cloud.kinds[j] == NodeKind::tool_patch) {
+      nodes.points.push_back(model.cloud.positions[j]);
+      nodes.normals.push_back(model.cloud.normals[j]);
+      nodes.weights.push_back(area[j]);
+    }
+  if (!surface_traction_map(model.cloud, model.material, mls, nodes, model.paper_map))
+    return fail("a tool-patch node is outside every support");
+  const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic = f.haptic_method == ForceMethod::traction_integral ? model.traction_map
+                                                           : f.haptic_method == ForceMethod::paper_partition
+                                                               ? model.paper_map
+                                                               : model.reaction_map;
+  model.tool_stiffness_N_per_m = haptic * model.unit_response;
+  if (!model.tool_stiffness_N_per_m.allFinite()) return fail("the tool stiffness is not finite");
+  if (!f.energy) model.volume = PatchQuadrature{};
+  model.times.condense_s = seconds_since(step);
+  model.times.total_s = seconds_since(start);
+  return model;
+}
+
+}  // namespace
+
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const Material& material,
                              const LocalModelSettings& settings) {
   material.validate();
@@ -142,6 +219,8 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   if (settings.paper_mode) sprinkling.tip_node_only = true;
   model.cloud = sprinkle_nodes(organ, contact, sprinkling);
   model.times.sprinkle_s = seconds_since(start);
+
+  if (settings.formulation == Formulation::galerkin) return build_galerkin(organ, std::move(model), start);
 
   auto step = std::chrono::steady_clock::now();
   assemble_collocation(model.cloud, material, settings.collocation, model.system);

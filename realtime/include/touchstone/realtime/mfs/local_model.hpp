@@ -10,6 +10,7 @@
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"
@@ -48,9 +49,21 @@ struct ForceSettings {
   void validate() const;
 };
 
+/// How the equations are written on the nodes.
+enum class Formulation : std::uint8_t {
+  collocation,  ///< strong form at points (the paper; square or least squares): fast, not convergent on the punch
+  galerkin,     ///< weak form with penalty constraints (De & Bathe's MFS): converges from above
+};
+
+std::string to_string(Formulation formulation);
+
 struct LocalModelSettings {
+  Formulation formulation = Formulation::collocation;
   SprinklingSettings sprinkling;
   CollocationSettings collocation;
+  /// Galerkin only: penalty; its MLS settings are collocation.mls. K is dense and factorised by
+  /// LDLT (the solver settings apply to collocation).
+  GalerkinSettings galerkin;
   SolverSettings solver;
   ForceSettings force;
   /// The paper's model (B4, paper eqs. 7–9 literally): one tool-tip node whose nodal parameters
@@ -74,8 +87,9 @@ struct LocalModel {
   LocalModelSettings settings;
   ToolContact contact;
   NodeCloud cloud;
-  CollocationSystem system;
-  CollocationSolver solver;
+  CollocationSystem system;   ///< collocation only
+  CollocationSolver solver;   ///< collocation only
+  GalerkinSystem galerkin;    ///< Galerkin only
   /// Nodal parameters for U_tool = e_x, e_y, e_z (3N × 3) and for the loads alone (3N).
   Eigen::MatrixXd unit_response;
   Eigen::VectorXd load_response;
