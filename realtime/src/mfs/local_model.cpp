@@ -26,6 +26,30 @@ const char* to_string(MlsStatus status) {
   return "unknown";
 }
 
+/// The paper's force in newtons (DESIGN.md §1.4): each patch node's traction rows scaled by its
+/// tributary area — the traction map on a nodal quadrature of the patch.
+bool patch_node_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+                    const PatchQuadrature& patch, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
+  PatchQuadrature nodes;
+  const std::vector<double> area = tributary_areas(cloud, patch);
+  for (std::size_t j = 0; j < cloud.size(); ++j)
+    if (cloud.kinds[j] == NodeKind::tool_patch) {
+      nodes.points.push_back(cloud.positions[j]);
+      nodes.normals.push_back(cloud.normals[j]);
+      nodes.weights.push_back(area[j]);
+    }
+  return surface_traction_map(cloud, material, mls, nodes, map);
+}
+
+/// The force map that defines K_t (ForceSettings::haptic_method).
+const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic_map(const LocalModel& model) {
+  switch (model.settings.force.haptic_method) {
+    case ForceMethod::reaction: return model.reaction_map;
+    case ForceMethod::paper_partition: return model.paper_map;
+    default: return model.traction_map;
+  }
+}
+
 /// Paper eq. 7 with the tip dofs a = 3t…3t+2: U_b = −K_bb⁻¹ K_ba U_a for U_a = e_x, e_y, e_z.
 /// K is square here (paper mode never oversamples).
 bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& unit_response, std::string& failure) {
@@ -182,21 +206,9 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   if (!surface_traction_map(model.cloud, model.material, mls, patch, model.traction_map))
     return fail("a tool-patch quadrature point is outside every support");
   model.reaction_map = model.galerkin.cut_map;  // minus the cut's penalty force on the tissue
-  PatchQuadrature nodes;
-  const std::vector<double> area = tributary_areas(model.cloud, patch);
-  for (std::size_t j = 0; j < model.cloud.size(); ++j)
-    if (model.cloud.kinds[j] == NodeKind::tool_patch) {
-      nodes.points.push_back(model.cloud.positions[j]);
-      nodes.normals.push_back(model.cloud.normals[j]);
-      nodes.weights.push_back(area[j]);
-    }
-  if (!surface_traction_map(model.cloud, model.material, mls, nodes, model.paper_map))
+  if (!patch_node_map(model.cloud, model.material, mls, patch, model.paper_map))
     return fail("a tool-patch node is outside every support");
-  const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic = f.haptic_method == ForceMethod::traction_integral ? model.traction_map
-                                                           : f.haptic_method == ForceMethod::paper_partition
-                                                               ? model.paper_map
-                                                               : model.reaction_map;
-  model.tool_stiffness_N_per_m = haptic * model.unit_response;
+  model.tool_stiffness_N_per_m = haptic_map(model) * model.unit_response;
   if (!model.tool_stiffness_N_per_m.allFinite()) return fail("the tool stiffness is not finite");
   if (!f.energy) model.volume = PatchQuadrature{};
   model.times.condense_s = seconds_since(step);
@@ -284,26 +296,14 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
     // The tip's rows are along the axes: the residual is already a traction vector.
     model.paper_map *= model.tip_tributary_area_m2;
   } else {
-    PatchQuadrature nodes;  // the patch nodes with their tributary areas: a nodal quadrature
-    const std::vector<double> area = tributary_areas(model.cloud, patch);
-    for (int j = 0; j < n; ++j)
-      if (model.cloud.kinds[j] == NodeKind::tool_patch) {
-        nodes.points.push_back(model.cloud.positions[j]);
-        nodes.normals.push_back(model.cloud.normals[j]);
-        nodes.weights.push_back(area[j]);
-      }
-    if (!surface_traction_map(model.cloud, material, mls, nodes, model.paper_map))
+    if (!patch_node_map(model.cloud, material, mls, patch, model.paper_map))
       return fail("a tool-patch node is outside every support");
   }
   if (f.energy)
     model.volume = volume_quadrature(organ, contact, settings.sprinkling.local_radius_m, f.volume_radial_points,
                                      f.volume_polar_points, f.volume_azimuth_points);
-  const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic = f.haptic_method == ForceMethod::reaction ? model.reaction_map
-                                                           : f.haptic_method == ForceMethod::paper_partition
-                                                               ? model.paper_map
-                                                               : model.traction_map;
-  model.tool_stiffness_N_per_m = haptic * model.unit_response;
-  model.load_force_N = haptic * model.load_response;
+  model.tool_stiffness_N_per_m = haptic_map(model) * model.unit_response;
+  model.load_force_N = haptic_map(model) * model.load_response;
   if (!model.tool_stiffness_N_per_m.allFinite() || !model.load_force_N.allFinite())
     return fail("the tool stiffness is not finite");
   model.times.condense_s = seconds_since(step);

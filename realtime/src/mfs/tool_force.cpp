@@ -181,11 +181,6 @@ PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const T
   return q;
 }
 
-bool traction_force_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
-                        const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
-  return surface_traction_map(cloud, material, mls, quadrature, map);
-}
-
 bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
                           const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
   const double lambda = material.lambda_Pa(), mu = material.mu_Pa();

@@ -3,7 +3,7 @@
 // translation is a test function), and on B3 the force converges to the FEM from above as N
 // grows, the energy force approaching the reaction — what point collocation does not do
 // (test_force_methods).
-#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 
 #include <gtest/gtest.h>
@@ -16,32 +16,11 @@
 namespace touchstone::realtime::mfs {
 namespace {
 
-constexpr double radius_m = 0.05, tool_radius_m = 0.0025, depth_m = 0.25e-3;
+constexpr double depth_m = 0.25e-3;
 constexpr double fem_reference_N = 0.022038;  // touchstone fem studies/b3_reference.toml, frictionless
 
-const geometry::TriangleSurface& hemisphere() {
-  static const geometry::TriangleSurface surface = [] {
-    meshes::MeshParameters g;
-    g.benchmark = meshes::Benchmark::B2;
-    g.edge_size_m = 0.0005;
-    g.size_growth = 0.3;
-    g.max_size_m = 0.004;
-    const std::string path = "galerkin_hemisphere_" + std::to_string(getpid()) + ".msh";
-    meshes::generate_mesh(g, path);
-    geometry::TriangleSurface loaded = geometry::TriangleSurface::from_msh(path);
-    std::remove(path.c_str());
-    return loaded;
-  }();
-  return surface;
-}
-
-ToolContact pole_contact(PatchCondition condition = PatchCondition::frictionless) {
-  ToolContact contact;
-  contact.point = {0.0, 0.0, radius_m};
-  contact.radius_m = tool_radius_m;
-  contact.condition = condition;
-  return contact;
-}
+using testing::hemisphere;
+using testing::pole_contact;
 
 LocalModelSettings galerkin_settings(int node_count) {
   LocalModelSettings s;

@@ -4,7 +4,7 @@
 // the condensation of the collocation system (§4.5) and the model is linear; the paper mode
 // solves eq. 7 with the tip's parameters set to U_tool; least-squares collocation reports the
 // misfit of its rectangular system and solves its normal equations.
-#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 
 #include <gtest/gtest.h>
@@ -23,33 +23,10 @@
 namespace touchstone::realtime::mfs {
 namespace {
 
-constexpr double radius_m = 0.05, tool_radius_m = 0.0025;
 const double nan = std::numeric_limits<double>::quiet_NaN();
 
-/// The B2 hemisphere (R = 50 mm), meshed once per process.
-const geometry::TriangleSurface& hemisphere() {
-  static const geometry::TriangleSurface surface = [] {
-    meshes::MeshParameters g;
-    g.benchmark = meshes::Benchmark::B2;
-    g.edge_size_m = 0.0005;
-    g.size_growth = 0.3;
-    g.max_size_m = 0.004;
-    // One file per process: ctest -j runs each test case in its own process, all in one folder.
-    const std::string path = "local_model_hemisphere_" + std::to_string(::getpid()) + ".msh";
-    meshes::generate_mesh(g, path);
-    geometry::TriangleSurface loaded = geometry::TriangleSurface::from_msh(path);
-    std::remove(path.c_str());
-    return loaded;
-  }();
-  return surface;
-}
-
-ToolContact pole_contact() {
-  ToolContact contact;
-  contact.point = {0.0, 0.0, radius_m};
-  contact.radius_m = tool_radius_m;
-  return contact;
-}
+using testing::hemisphere;
+using testing::pole_contact;
 
 /// Default settings at N ≈ 60 without the (slow, study-only) energy quadrature.
 LocalModelSettings small_settings() {

@@ -1,6 +1,6 @@
 // Node sprinkling on a real closed surface (the gmsh B2 hemisphere): counts, placement of each
 // node kind, determinism, bad input; and the tool-patch quadrature.
-#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"
 
@@ -15,31 +15,10 @@
 namespace touchstone::realtime::mfs {
 namespace {
 
-constexpr double radius_m = 0.05, tool_radius_m = 0.0025;
+constexpr double radius_m = testing::hemisphere_radius_m, tool_radius_m = testing::tool_radius_m;
 
-const geometry::TriangleSurface& hemisphere() {
-  static const geometry::TriangleSurface surface = [] {
-    meshes::MeshParameters g;
-    g.benchmark = meshes::Benchmark::B2;
-    g.edge_size_m = 0.0005;
-    g.size_growth = 0.3;
-    g.max_size_m = 0.004;
-    // One file per process: ctest runs the cases of this program in parallel.
-    const std::string path = "sprinkling_hemisphere_" + std::to_string(getpid()) + ".msh";
-    meshes::generate_mesh(g, path);
-    geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
-    std::remove(path.c_str());
-    return surface;
-  }();
-  return surface;
-}
-
-ToolContact pole_contact() {
-  ToolContact contact;
-  contact.point = {0.0, 0.0, radius_m};
-  contact.radius_m = tool_radius_m;
-  return contact;
-}
+using testing::hemisphere;
+using testing::pole_contact;
 
 class Sprinkling : public ::testing::TestWithParam<Layout> {};
 

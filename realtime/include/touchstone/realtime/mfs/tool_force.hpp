@@ -38,7 +38,8 @@ PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const Too
 PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
                                   int radial_points = 16, int polar_points = 24, int azimuth_points = 32);
 
-/// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N). Returns false
+/// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N); on the patch
+/// quadrature it is the force of the tool on the tissue. Returns false
 /// (and leaves `map` empty) when a shape-function evaluation fails at a quadrature point.
 bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
                           const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map);
@@ -52,10 +53,5 @@ bool strain_energy(const NodeCloud& cloud, const Material& material, const MlsSe
 /// node's traction row by its share of the patch): a node's share is the part of the patch
 /// disk closer to it than to any other patch node, estimated on the patch quadrature.
 std::vector<double> tributary_areas(const NodeCloud& cloud, const PatchQuadrature& patch);
-
-/// The linear map U ↦ F = ∫_patch σ(u_h) n dA [N] (force of the tool on the tissue), as a
-/// 3 × 3N matrix: surface_traction_map on the patch quadrature.
-bool traction_force_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
-                        const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map);
 
 }  // namespace touchstone::realtime::mfs
