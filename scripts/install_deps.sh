@@ -10,6 +10,8 @@ packages=(
   libeigen3-dev libdeal.ii-dev openmpi-bin libopenblas0 libssl-dev
   # meshes
   gmsh libgmsh-dev
+  # collision detection: Embree is the oracle and speed reference for the own BVH
+  libembree-dev
   # configuration, command line, logging, JSON
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # tests, benchmarks, plots
