@@ -12,6 +12,8 @@ packages=(
   gmsh libgmsh-dev
   # collision detection: Embree is the oracle and speed reference for the own BVH
   libembree-dev
+  # surface mesh readers (STL, OBJ, VTK, VTP) and the interactive window; OpenIGTLink devices
+  libvtk9-dev libopenigtlink-dev
   # configuration, command line, logging, JSON
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # tests, benchmarks, plots
