@@ -198,6 +198,7 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"paper_mode", s.paper_mode},
           {"formulation", mfs::to_string(s.formulation)},
           {"penalty_factor", s.galerkin.penalty_factor},
+          {"constraint", mfs::to_string(s.galerkin.constraint)},
           {"local_radius_m", sp.local_radius_m},
           {"layout", name_of(layouts, sp.layout)},
           {"ring_nodes", sp.ring_nodes},
@@ -490,6 +491,9 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   }
   ConfigTable galerkin = config.table("galerkin");
   s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
+  s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
+                              ? mfs::Constraint::nitsche
+                              : mfs::Constraint::penalty;
 
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
@@ -636,7 +640,8 @@ std::string resolved_config_toml(const MfsStudy& study) {
       {"study", study.name},
       {"paper_mode", s.paper_mode},
       {"formulation", mfs::to_string(s.formulation)},
-      {"galerkin", toml::table{{"penalty_factor", s.galerkin.penalty_factor}}},
+      {"galerkin", toml::table{{"penalty_factor", s.galerkin.penalty_factor},
+                               {"constraint", mfs::to_string(s.galerkin.constraint)}}},
       {"geometry", geometry},
       {"organ", organ},
       {"material", toml::table{{"youngs_modulus", study.material.youngs_modulus_Pa}, {"poisson_ratio", study.material.poisson_ratio}}},

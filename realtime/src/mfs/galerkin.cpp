@@ -4,8 +4,26 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace touchstone::realtime::mfs {
+
+std::string to_string(Constraint constraint) { return constraint == Constraint::nitsche ? "nitsche" : "penalty"; }
+
+namespace {
+
+/// T (3 × 3): the traction σ(h e_k) n of shape function h with gradient g, column k.
+Eigen::Matrix3d shape_traction(const Material& material, const Eigen::Vector3d& g, const Eigen::Vector3d& n) {
+  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  return lambda * n * g.transpose() + mu * (g.dot(n) * Eigen::Matrix3d::Identity() + g * n.transpose());
+}
+
+double stabilisation_Pa_per_m(const NodeCloud& cloud, const Material& material, const GalerkinSettings& settings) {
+  const double finest = *std::min_element(cloud.spacing.begin(), cloud.spacing.end());
+  return settings.penalty_factor * material.youngs_modulus_Pa / finest;
+}
+
+}  // namespace
 
 void GalerkinSettings::validate() const {
   if (!std::isfinite(penalty_factor) || penalty_factor <= 0)
@@ -59,27 +77,41 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
         system.stiffness.block<3, 3>(3 * mls.neighbours[a], 3 * mls.neighbours[b]) += product.block<3, 3>(3 * a, 3 * b);
   }
 
-  // Penalty α ∫ Hᵀ P H dA with P = d dᵀ (frictionless patch) or I; the force on the tissue is
-  // α ∫ P (ū − u_h) dA.
-  const double finest = *std::min_element(cloud.spacing.begin(), cloud.spacing.end());
-  const double alpha = settings.penalty_factor * material.youngs_modulus_Pa / finest;
+  // The constraint P u = P ū on a surface. Penalty: α ∫ (P u)·v. Nitsche adds the consistency
+  // terms −∫ (σ(u)n)·P v − ∫ (σ(v)n)·P u; with T_a the traction of shape function a, the
+  // block (a, b) of K gains w (α h_a h_b P − h_a P T_b − T_aᵀ P h_b), and the boundary force
+  // on the tissue is ∫ P (σ(u_h)n − α (u_h − ū)) dA.
+  const double alpha = stabilisation_Pa_per_m(cloud, material, settings);
   system.penalty_Pa_per_m = alpha;
+  const bool nitsche = settings.constraint == Constraint::nitsche;
   const Eigen::Vector3d d = contact.direction.normalized();
-  const auto add_penalty = [&](const PatchQuadrature& surface, const Eigen::Matrix3d& projection, bool on_patch,
-                               int offset) {
+  std::vector<Eigen::Matrix3d> flux;  // per neighbour: w (α h_a P − P T_a), the force map block
+  const auto add_constraint = [&](const PatchQuadrature& surface, const Eigen::Matrix3d& projection, bool on_patch,
+                                  int offset) {
     for (std::size_t q = 0; q < surface.points.size(); ++q) {
-      evaluate_mls(surface.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls, Derivatives::values, mls);
+      evaluate_mls(surface.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls,
+                   nitsche ? Derivatives::gradients : Derivatives::values, mls);
       if (mls.status != MlsStatus::ok) return static_cast<int>(offset + q);
-      const double w = alpha * surface.weights[q];
-      Eigen::Matrix<double, 3, Eigen::Dynamic>& map = on_patch ? system.patch_map : system.cut_map;
-      for (std::size_t a = 0; a < mls.neighbours.size(); ++a) {
-        const int i = mls.neighbours[a];
-        map.block<3, 3>(0, 3 * i) += w * mls.value[a] * projection;
-        if (on_patch) system.tool_rhs.block<3, 3>(3 * i, 0) += w * mls.value[a] * projection;
-        for (std::size_t b = 0; b < mls.neighbours.size(); ++b)
-          system.stiffness.block<3, 3>(3 * i, 3 * mls.neighbours[b]) += w * mls.value[a] * mls.value[b] * projection;
+      const double w = surface.weights[q];
+      const std::size_t k = mls.neighbours.size();
+      flux.resize(k);
+      for (std::size_t a = 0; a < k; ++a) {
+        flux[a] = w * alpha * mls.value[a] * projection;
+        if (nitsche) flux[a] -= w * projection * shape_traction(material, mls.gradient[a], surface.normals[q]);
       }
-      if (on_patch) system.patch_tool_map += w * projection;
+      Eigen::Matrix<double, 3, Eigen::Dynamic>& map = on_patch ? system.patch_map : system.cut_map;
+      for (std::size_t a = 0; a < k; ++a) {
+        const int i = mls.neighbours[a];
+        map.block<3, 3>(0, 3 * i) += flux[a];
+        // The tool's right-hand side ∫ (α h_a − T_aᵀ) P U_tool: the transpose of the force block.
+        if (on_patch) system.tool_rhs.block<3, 3>(3 * i, 0) += flux[a].transpose();
+        for (std::size_t b = 0; b < k; ++b) {
+          Eigen::Matrix3d block = mls.value[a] * flux[b];  // w (α h_a h_b P − h_a P T_b)
+          if (nitsche) block -= w * mls.value[b] * shape_traction(material, mls.gradient[a], surface.normals[q]).transpose() * projection;
+          system.stiffness.block<3, 3>(3 * i, 3 * mls.neighbours[b]) += block;
+        }
+      }
+      if (on_patch) system.patch_tool_map += w * alpha * projection;
     }
     return -1;
   };
@@ -87,10 +119,45 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
                                                ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
                                                : Eigen::Matrix3d(d * d.transpose());
   const int volume_count = static_cast<int>(volume.points.size());
-  int failed = add_penalty(patch, patch_projection, true, volume_count);
-  if (failed < 0) failed = add_penalty(cut, Eigen::Matrix3d::Identity(), false, volume_count + static_cast<int>(patch.points.size()));
+  int failed = add_constraint(patch, patch_projection, true, volume_count);
+  if (failed < 0) failed = add_constraint(cut, Eigen::Matrix3d::Identity(), false, volume_count + static_cast<int>(patch.points.size()));
   if (failed >= 0) return fail(mls.status, failed);
   return system;
+}
+
+bool traction_load(const NodeCloud& cloud, const PatchQuadrature& surface, const std::vector<Eigen::Vector3d>& traction_Pa,
+                   const GalerkinSettings& settings, Eigen::VectorXd& load) {
+  load.setZero(3 * static_cast<Eigen::Index>(cloud.size()));
+  static const std::vector<int> all_nodes;
+  MlsEvaluation mls;
+  for (std::size_t q = 0; q < surface.points.size(); ++q) {
+    evaluate_mls(surface.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls, Derivatives::values, mls);
+    if (mls.status != MlsStatus::ok) return false;
+    for (std::size_t a = 0; a < mls.neighbours.size(); ++a)
+      load.segment<3>(3 * mls.neighbours[a]) += surface.weights[q] * mls.value[a] * traction_Pa[q];
+  }
+  return true;
+}
+
+bool prescribed_displacement_load(const NodeCloud& cloud, const Material& material, const PatchQuadrature& surface,
+                                  const std::vector<Eigen::Vector3d>& displacement_m, const GalerkinSettings& settings,
+                                  Eigen::VectorXd& load) {
+  load.setZero(3 * static_cast<Eigen::Index>(cloud.size()));
+  static const std::vector<int> all_nodes;
+  const double alpha = stabilisation_Pa_per_m(cloud, material, settings);
+  const bool nitsche = settings.constraint == Constraint::nitsche;
+  MlsEvaluation mls;
+  for (std::size_t q = 0; q < surface.points.size(); ++q) {
+    evaluate_mls(surface.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls,
+                 nitsche ? Derivatives::gradients : Derivatives::values, mls);
+    if (mls.status != MlsStatus::ok) return false;
+    for (std::size_t a = 0; a < mls.neighbours.size(); ++a) {
+      Eigen::Vector3d term = alpha * mls.value[a] * displacement_m[q];
+      if (nitsche) term -= shape_traction(material, mls.gradient[a], surface.normals[q]).transpose() * displacement_m[q];
+      load.segment<3>(3 * mls.neighbours[a]) += surface.weights[q] * term;
+    }
+  }
+  return true;
 }
 
 }  // namespace touchstone::realtime::mfs

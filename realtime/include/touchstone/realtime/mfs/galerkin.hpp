@@ -2,10 +2,18 @@
 /// @file
 /// The Method of Finite Spheres as De & Bathe define it: a Galerkin (weak-form) discretisation
 /// with the MLS shape functions, K = ∫_Ω Bᵀ D B dV, the rigid tool and the clamped cut imposed
-/// by a penalty α ∫ Hᵀ P H dA (α = β E / s_min). Unlike point collocation it is symmetric
-/// positive definite, has no Neumann rows to destabilise (traction-free is natural), and the
-/// tool force — the penalty reaction on the patch — balances the cut's exactly (Σ_J h_J = 1).
-/// The paper replaced it by point collocation for speed; both are offered (DESIGN.md §4).
+/// weakly, by a penalty α ∫ Hᵀ P H dA (default) or Nitsche's method. Unlike point
+/// collocation it is symmetric, has no Neumann rows to destabilise (traction-free is natural),
+/// and the tool force — the boundary flux on the patch — balances the cut's exactly
+/// (Σ_J h_J = 1). The paper replaced it by point collocation for speed; both are offered
+/// (DESIGN.md §4).
+///
+/// Nitsche adds the consistency terms −∫ (σ(u)n)·P v − ∫ (σ(v)n)·P (u − ū): the exact
+/// solution satisfies the weak form for any α, so α need only be large enough for coercivity.
+/// Measured on B3 (touchstone mfs, frictionless, N = 409): penalty β = 100 +20.6 %, Nitsche
+/// β = 100 +20.3 % — the constraint is not what limits the accuracy (the resolution of the
+/// punch edge and the volume quadrature are); and Nitsche with β = 100 loses positive
+/// definiteness at N = 414, so the penalty stays the default.
 
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
@@ -14,19 +22,32 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <string>
+#include <vector>
+
 namespace touchstone::realtime::mfs {
+
+/// How u = ū is imposed on the tool patch and the cut.
+enum class Constraint : std::uint8_t {
+  penalty,  ///< α ∫ P (u − ū)·v only: O(1/α) violation and, for large α, locking (default)
+  nitsche,  ///< consistent (symmetric Nitsche); K loses definiteness when α is too small
+};
 
 struct GalerkinSettings {
   MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 1.5};
-  /// Penalty α = β E / s_min [Pa/m]. Measured on B3 (N = 201): β = 100 gives +33 % force,
-  /// β = 1000 +52 % (the penalty over-constrains coarse clouds); the error is O(1/β) as well.
+  Constraint constraint = Constraint::penalty;
+  /// α = β E / s_min [Pa/m] (β = penalty_factor, s_min the finest node spacing). Penalty: the
+  /// constraint's strength. Nitsche: the stabilisation, which must exceed a bound of the
+  /// inverse inequality ‖σ(v)n‖_Γ ≤ C ‖ε(v)‖_Ω / √h for K to be positive definite.
   double penalty_factor = 100;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
 
 /// K (3N × 3N, dense, symmetric), the tool right-hand side G (f = G U_tool), and the linear maps
-/// of the penalty forces on the tissue: F_patch = A_patch U_tool − M_patch U, F_cut = −M_cut U.
+/// of the boundary forces on the tissue, ∫ P (σ(u_h)n + α (ū − u_h)) dA with Nitsche and
+/// ∫ α P (ū − u_h) dA with the penalty: F_patch = A_patch U_tool − M_patch U, F_cut = −M_cut U.
 struct GalerkinSystem {
   Eigen::MatrixXd stiffness;
   Eigen::Matrix<double, Eigen::Dynamic, 3> tool_rhs;
@@ -37,10 +58,24 @@ struct GalerkinSystem {
   int failed_point = -1;  ///< index of the quadrature point (volume, then patch, then cut) that failed
 };
 
+std::string to_string(Constraint constraint);
+
 /// Assembles the Galerkin system on the quadratures of Ω, the tool patch and the cut surface.
 /// Frictionless: the penalty holds only the component along d (u·d = U_tool·d); bonded: all.
 GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& material, const ToolContact& contact,
                                  const PatchQuadrature& volume, const PatchQuadrature& patch,
                                  const PatchQuadrature& cut, const GalerkinSettings& settings);
+
+/// Load vectors (3N) for problems other than the punch, e.g. the verification tests. Each
+/// returns false if a quadrature point is outside every support (`load` is then unusable).
+/// ∫_Γ h_J t̄ dA: a prescribed traction t̄ [Pa] at the points of `surface`.
+bool traction_load(const NodeCloud& cloud, const PatchQuadrature& surface, const std::vector<Eigen::Vector3d>& traction_Pa,
+                   const GalerkinSettings& settings, Eigen::VectorXd& load);
+/// The right-hand side of u = ū [m] imposed on `surface` with projection I (the cut's
+/// constraint in assemble_galerkin): ∫_Γ (α h_J − T_Jᵀ) ū dA with Nitsche, α h_J ū with the
+/// penalty (T_J: the traction of the shape function, α from `cloud` as in assemble_galerkin).
+bool prescribed_displacement_load(const NodeCloud& cloud, const Material& material, const PatchQuadrature& surface,
+                                  const std::vector<Eigen::Vector3d>& displacement_m, const GalerkinSettings& settings,
+                                  Eigen::VectorXd& load);
 
 }  // namespace touchstone::realtime::mfs
