@@ -86,9 +86,12 @@ Material tissue() {
   return material;
 }
 
-/// Default settings but N, the solver and (when > 0) the oversampling; no study diagnostics.
+/// Collocation (the paper's formulation, built for the model loop) with N, the solver and
+/// (when > 0) the oversampling; no study diagnostics.
 LocalModelSettings loop_settings(int node_count, SolverKind kind, double oversampling = 0.0) {
   LocalModelSettings settings;
+  settings.formulation = touchstone::realtime::mfs::Formulation::collocation;
+  settings.force.haptic_method = touchstone::realtime::mfs::ForceMethod::traction_integral;
   settings.sprinkling.node_count = node_count;
   settings.sprinkling.local_radius_m = local_radius_m;
   if (oversampling > 0) settings.sprinkling.oversampling = oversampling;

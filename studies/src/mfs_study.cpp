@@ -482,7 +482,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   s.paper_mode = paper_mode;
   // Strong form at points (the paper) or weak form (De & Bathe's MFS); Galerkin's tool force is
   // the reaction, so that becomes its default haptic method.
-  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, "collocation") == "galerkin"
+  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, mfs::to_string(s.formulation)) == "galerkin"
                       ? mfs::Formulation::galerkin
                       : mfs::Formulation::collocation;
   if (s.formulation == mfs::Formulation::galerkin) {

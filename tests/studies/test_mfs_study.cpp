@@ -150,8 +150,8 @@ TEST_F(MfsStudyRun, ResultsJsonCarriesTheContract) {
       for (const auto& component : by_method.at(method)) EXPECT_TRUE(component.is_number()) << method;
     }
     EXPECT_TRUE(by_method.at("energy_along_tool").is_number());
-    // The haptic force is K_t U_tool by the traction integral (the default method).
-    EXPECT_NEAR(by_method.at("traction_integral").at(2).get<double>(), f_z, 1e-9 * std::abs(f_z));
+    // The haptic force is K_t U_tool by the reaction (the default method).
+    EXPECT_NEAR(by_method.at("reaction").at(2).get<double>(), f_z, 1e-9 * std::abs(f_z));
     ASSERT_EQ(qoi.at("tool_stiffness_matrix_N_per_m").size(), 3u);
     EXPECT_GT(qoi.at("min_rcond").get<double>(), 0.0);
 

@@ -154,6 +154,7 @@ void LocalModelSettings::validate() const {
 
 LocalModelSettings paper_settings() {
   LocalModelSettings s;
+  s.formulation = Formulation::collocation;
   s.paper_mode = true;
   s.sprinkling.node_count = 34;
   s.sprinkling.oversampling = 1;
@@ -229,6 +230,8 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   model.contact = contact;
   SprinklingSettings sprinkling = settings.sprinkling;
   if (settings.paper_mode) sprinkling.tip_node_only = true;
+  // Extra collocation points mean nothing to the weak form: do not sprinkle them.
+  if (settings.formulation == Formulation::galerkin) sprinkling.oversampling = 1;
   model.cloud = sprinkle_nodes(organ, contact, sprinkling);
   model.times.sprinkle_s = seconds_since(start);
 

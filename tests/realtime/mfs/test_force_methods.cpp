@@ -5,8 +5,12 @@
 // studies/b3_reference.toml).
 //
 // Label open_acceptance: this asserts the target and FAILS today. Measured with the defaults
-// (least squares, oversampling 3): at N = 409 traction 8.9 mN, paper 9.0 mN, energy 42 mN,
-// reaction 200 mN — the methods do not agree, and the traction force is 60 % below the FEM.
+// (Galerkin, penalty) at N = 103, 201, 409: reaction 34.9, 29.8, 27.0 mN and energy 30.5,
+// 27.7, 25.9 mN approach each other and the FEM from above, but the traction integral of
+// σ(u_h)n (9.7, 14.8, 13.9 mN) and the paper's patch-node partition (9.6, 14.7, 14.4 mN) stay
+// 35–55 % low: the smooth MLS field cannot carry the r^(−1/2) stress at the punch edge, which
+// holds much of the force. (Least-squares collocation at N = 409: traction 8.9, paper 9.0,
+// energy 42, reaction 200 mN.)
 #include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 
@@ -44,7 +48,7 @@ TEST(ForceMethods, AgreeAsNodesAreAdded) {
     const double forces[4] = {f.traction_integral_N.dot(contact.direction), f.reaction_N.dot(contact.direction),
                               f.energy_force_N, f.paper_partition_N.dot(contact.direction)};
     const auto [low, high] = std::minmax_element(forces, forces + 4);
-    spread.push_back((*high - *low) / std::abs(forces[0]));
+    spread.push_back((*high - *low) / std::abs(forces[1]));
     std::printf("  N = %zu: traction %.4e N, reaction %.4e N, energy %.4e N, paper %.4e N; spread %.1f %%, "
                 "traction vs FEM %+.1f %%\n",
                 model.cloud.size(), forces[0], forces[1], forces[2], forces[3], 100 * spread.back(),

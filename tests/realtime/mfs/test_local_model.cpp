@@ -28,9 +28,12 @@ const double nan = std::numeric_limits<double>::quiet_NaN();
 using testing::hemisphere;
 using testing::pole_contact;
 
-/// Default settings at N ≈ 60 without the (slow, study-only) energy quadrature.
+/// Least-squares collocation (these tests are about its rows, solvers and maps) at N ≈ 60
+/// without the (slow, study-only) energy quadrature.
 LocalModelSettings small_settings() {
   LocalModelSettings s;
+  s.formulation = Formulation::collocation;
+  s.force.haptic_method = ForceMethod::traction_integral;
   s.sprinkling.node_count = 60;
   s.force.energy = false;
   return s;

@@ -34,9 +34,10 @@ PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const Too
 
 /// Volume quadrature of Ω = organ ∩ ball(c, L): per direction (polar, azimuth about the inward
 /// normal) the ray from c is cut where it leaves the organ or reaches L, with Gauss–Legendre in
-/// the radius. `normals` are unused (zero). Weights in [m³].
+/// t for ρ = a (e^{κt} − 1), κ = ln(1 + reach/a) (a = the tool radius): points graded like the
+/// node cloud. `normals` are unused (zero). Weights in [m³].
 PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
-                                  int radial_points = 16, int polar_points = 24, int azimuth_points = 32);
+                                  int radial_points = 32, int polar_points = 24, int azimuth_points = 32);
 
 /// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N); on the patch
 /// quadrature it is the force of the tool on the tissue. Returns false
