@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <map>
@@ -35,6 +36,7 @@ constexpr int leaf_size = 4;
 // traversal stack (one deferred child per level) never exceeds 64 entries.
 constexpr int max_stack = 64;
 constexpr double degenerate_area_factor = 1e-14;
+constexpr double coincident_vertex_factor = 1e-12;
 
 // Closest-point features: 0 the face interior, 1 + k edge k (corner k → k + 1), 4 + k corner k.
 constexpr int face_feature = 0;
@@ -106,47 +108,59 @@ std::string format_number(double value) {
   return text.str();
 }
 
-/// Names vertices and triangles in messages, with the gmsh tags when the surface came from a file.
-class Labels {
+/// Names vertices, triangles and edges in messages, with the file's own numbers when known.
+class Names {
  public:
-  Labels(const std::string& source, const std::vector<long long>& vertex_tags,
-         const std::vector<long long>& triangle_tags)
-      : source_(source), vertex_tags_(vertex_tags), triangle_tags_(triangle_tags) {}
+  Names(const std::vector<Vector3d>& vertices, const SurfaceLabels& labels) : vertices_(vertices), labels_(labels) {}
 
   std::string vertex(int v) const {
     std::string text = "vertex " + std::to_string(v);
-    if (v >= 0 && static_cast<std::size_t>(v) < vertex_tags_.size()) {
-      text += " (gmsh node " + std::to_string(vertex_tags_[v]) + ")";
-    }
+    if (has_vertex_tag(v)) text += " (" + labels_.vertex_kind + " " + std::to_string(labels_.vertex_tags[v]) + ")";
     return text;
+  }
+  /// "(x, y, z)" in metres.
+  std::string point(int v) const {
+    if (v < 0 || static_cast<std::size_t>(v) >= vertices_.size()) return "(?)";
+    const Vector3d& x = vertices_[v];
+    return "(" + format_number(x[0]) + ", " + format_number(x[1]) + ", " + format_number(x[2]) + ")";
   }
   std::string triangle(int t) const {
     std::string text = "triangle " + std::to_string(t);
-    if (t >= 0 && static_cast<std::size_t>(t) < triangle_tags_.size()) {
-      text += " (gmsh element " + std::to_string(triangle_tags_[t]) + ")";
+    if (t >= 0 && static_cast<std::size_t>(t) < labels_.triangle_tags.size()) {
+      text += " (" + labels_.triangle_kind + " " + std::to_string(labels_.triangle_tags[t]) + ")";
     }
     return text;
   }
-  /// "edge (a, b)" with the gmsh node tags when known.
+  /// "edge (a, b)" with the file's numbers when known; `separator` " -> " for a directed edge.
   std::string edge(int a, int b, const char* separator = ", ") const {
     std::string text = "edge (" + std::to_string(a) + separator + std::to_string(b) + ")";
-    if (static_cast<std::size_t>(std::max(a, b)) < vertex_tags_.size()) {
-      text += " (gmsh nodes " + std::to_string(vertex_tags_[a]) + separator +
-              std::to_string(vertex_tags_[b]) + ")";
+    if (has_vertex_tag(a) && has_vertex_tag(b)) {
+      text += " (" + plural(labels_.vertex_kind) + " " + std::to_string(labels_.vertex_tags[a]) + separator +
+              std::to_string(labels_.vertex_tags[b]) + ")";
     }
     return text;
-  }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::invalid_argument(source_ + ": " + what);
   }
 
  private:
-  const std::string& source_;
-  const std::vector<long long>& vertex_tags_;
-  const std::vector<long long>& triangle_tags_;
+  bool has_vertex_tag(int v) const { return v >= 0 && static_cast<std::size_t>(v) < labels_.vertex_tags.size(); }
+  static std::string plural(const std::string& noun) {
+    const std::string vertex = "vertex";
+    if (noun.size() >= vertex.size() && noun.compare(noun.size() - vertex.size(), vertex.size(), vertex) == 0) {
+      return noun.substr(0, noun.size() - vertex.size()) + "vertices";
+    }
+    return noun + "s";
+  }
+
+  const std::vector<Vector3d>& vertices_;
+  const SurfaceLabels& labels_;
 };
 
-/// Union–find over triangle corners, to count the fans around each vertex.
+/// "1 vertex", "3 vertices".
+std::string counted(std::size_t count, const char* singular, const char* plural) {
+  return std::to_string(count) + " " + (count == 1 ? singular : plural);
+}
+
+/// Union–find, to group triangle corners into fans and boundary edges into holes.
 class DisjointSets {
  public:
   explicit DisjointSets(std::size_t size) {
@@ -166,19 +180,181 @@ class DisjointSets {
   std::vector<std::size_t> parent_;
 };
 
-/// Checks that every edge joins exactly two triangles that traverse it in opposite directions
-/// and that every vertex's triangles form one fan; returns the neighbour across each edge
-/// (3 per triangle, edge k from corner k to k + 1).
-std::vector<int> validate_topology(const std::vector<Vector3i>& triangles, std::size_t vertex_count,
-                                   const Labels& labels) {
+/// What validation finds, plus what the constructor reuses.
+struct Analysis {
+  std::vector<SurfaceDefect> defects;
+  std::vector<int> neighbours;  ///< across edge k (corner k → k + 1) of each triangle; complete when valid
+  double volume_m3 = 0;
+};
+
+/// The checks behind validate_surface and the constructor. Every check skips what an earlier
+/// one found broken, so that one defect is reported once, not as a cascade of others.
+Analysis analyse(const std::vector<Vector3d>& vertices, const std::vector<Vector3i>& triangles,
+                 const std::string& source, const SurfaceLabels& labels) {
+  using Kind = SurfaceDefectKind;
+  Analysis result;
+  const Names names(vertices, labels);
+  const auto report = [&](Kind kind, std::size_t count, const std::string& what) {
+    result.defects.push_back({kind, count, source + ": " + what});
+  };
+  if (triangles.empty()) {
+    report(Kind::no_triangles, 0, "the surface has no triangles");
+    return result;
+  }
+  constexpr std::size_t limit = std::numeric_limits<int>::max() / 3;
+  if (triangles.size() > limit || vertices.size() > limit) {
+    report(Kind::too_large, std::max(triangles.size(), vertices.size()),
+           "too many triangles (" + std::to_string(triangles.size()) + ") or vertices (" +
+               std::to_string(vertices.size()) + "): at most " + std::to_string(limit));
+    return result;
+  }
+  const int n = static_cast<int>(triangles.size());
+  const int vertex_count = static_cast<int>(vertices.size());
+
+  std::vector<char> finite(vertex_count);
+  {
+    std::size_t count = 0;
+    int first = -1;
+    for (int v = 0; v < vertex_count; ++v) {
+      finite[v] = vertices[v].allFinite();
+      if (!finite[v] && count++ == 0) first = v;
+    }
+    if (count > 0) {
+      report(Kind::non_finite_coordinate, count,
+             "non-finite coordinate in " + counted(count, "vertex", "vertices") + ", e.g. " + names.vertex(first) +
+                 " = " + names.point(first));
+    }
+  }
+
+  // Triangles whose indices are in range; their vertices are "used".
+  std::vector<char> in_range(n, 1);
+  std::vector<char> used(vertex_count, 0);
+  {
+    std::size_t count = 0;
+    int first = -1;
+    int first_index = 0;
+    for (int t = 0; t < n; ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const int v = triangles[t][k];
+        if (v < 0 || v >= vertex_count) {
+          if (in_range[t] && count++ == 0) {
+            first = t;
+            first_index = v;
+          }
+          in_range[t] = 0;
+        }
+      }
+      if (in_range[t]) {
+        for (int k = 0; k < 3; ++k) used[triangles[t][k]] = 1;
+      }
+    }
+    if (count > 0) {
+      report(Kind::index_out_of_range, count,
+             "vertex index out of range [0, " + std::to_string(vertex_count) + ") in " +
+                 counted(count, "triangle", "triangles") + ", e.g. " + names.triangle(first) + " refers to vertex " +
+                 std::to_string(first_index));
+    }
+  }
+
+  // Sizes are relative to the bounding box of the used, finite vertices.
+  Vector3d lower = Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Vector3d upper = -lower;
+  for (int v = 0; v < vertex_count; ++v) {
+    if (used[v] && finite[v]) {
+      lower = lower.cwiseMin(vertices[v]);
+      upper = upper.cwiseMax(vertices[v]);
+    }
+  }
+  const double diagonal = lower[0] <= upper[0] ? (upper - lower).norm() : 0.0;
+  const auto finite_triangle = [&](int t) {
+    return in_range[t] && finite[triangles[t][0]] && finite[triangles[t][1]] && finite[triangles[t][2]];
+  };
+
+  // Degenerate: a repeated index (no edge structure), or an area that is zero relative to the
+  // size of the surface (no normal).
+  std::vector<char> distinct(n, 0);
+  {
+    const double minimum_area = degenerate_area_factor * diagonal * diagonal;
+    std::size_t count = 0;
+    std::string example;
+    for (int t = 0; t < n; ++t) {
+      if (!in_range[t]) continue;
+      const Vector3i& c = triangles[t];
+      distinct[t] = c[0] != c[1] && c[1] != c[2] && c[2] != c[0];
+      std::string why;
+      if (!distinct[t]) {
+        why = " repeats vertex " + std::to_string(c[0] == c[1] || c[0] == c[2] ? c[0] : c[1]);
+      } else if (finite_triangle(t)) {
+        const double area = 0.5 * (vertices[c[1]] - vertices[c[0]]).cross(vertices[c[2]] - vertices[c[0]]).norm();
+        if (!(area > minimum_area)) {
+          why = " has area " + format_number(area) + " m^2 <= 1e-14 * (bounding-box diagonal)^2 = " +
+                format_number(minimum_area) + " m^2";
+        }
+      }
+      if (!why.empty() && count++ == 0) example = names.triangle(t) + why;
+    }
+    if (count > 0) {
+      report(Kind::degenerate_triangle, count,
+             counted(count, "degenerate triangle", "degenerate triangles") + ", e.g. " + example);
+    }
+  }
+
+  {
+    std::vector<std::pair<std::array<int, 3>, int>> sorted;
+    sorted.reserve(n);
+    for (int t = 0; t < n; ++t) {
+      if (!distinct[t]) continue;
+      std::array<int, 3> key{triangles[t][0], triangles[t][1], triangles[t][2]};
+      std::sort(key.begin(), key.end());
+      sorted.emplace_back(key, t);
+    }
+    std::sort(sorted.begin(), sorted.end());
+    std::size_t count = 0;
+    std::pair<int, int> example{n, n};
+    for (std::size_t i = 1; i < sorted.size(); ++i) {
+      if (sorted[i].first != sorted[i - 1].first) continue;
+      ++count;
+      // The group's first triangle is the earlier one; report the pair with the lowest numbers.
+      std::size_t first = i - 1;
+      while (first > 0 && sorted[first - 1].first == sorted[i].first) --first;
+      example = std::min(example, {sorted[first].second, sorted[i].second});
+    }
+    if (count > 0) {
+      report(Kind::duplicate_triangle, count,
+             counted(count, "duplicate triangle", "duplicate triangles") +
+                 " (the same three vertices as an earlier triangle), e.g. " + names.triangle(example.first) + " and " +
+                 names.triangle(example.second) + " are duplicates");
+    }
+  }
+
+  {
+    std::vector<char> used_finite(vertex_count);
+    for (int v = 0; v < vertex_count; ++v) used_finite[v] = used[v] && finite[v];
+    const double tolerance = coincident_vertex_factor * diagonal;
+    const std::vector<int> representative = coincident_vertices(vertices, tolerance, used_finite);
+    std::size_t count = 0;
+    int first = -1;
+    for (int v = 0; v < vertex_count; ++v) {
+      if (representative[v] != v && count++ == 0) first = v;
+    }
+    if (count > 0) {
+      report(Kind::duplicate_vertex, count,
+             counted(count, "duplicated vertex", "duplicated vertices") +
+                 " (at the same point as an earlier vertex, within 1e-12 * bounding-box diagonal = " +
+                 format_number(tolerance) + " m; weld them), e.g. " + names.vertex(representative[first]) + " and " +
+                 names.vertex(first) + " at " + names.point(first));
+    }
+  }
+
+  // Edges: each should join exactly two triangles that traverse it in opposite directions.
   struct DirectedEdge {
     int low, high, triangle, edge;
     bool forward;  // traversed low → high
   };
-  const int n = static_cast<int>(triangles.size());
   std::vector<DirectedEdge> edges;
-  edges.reserve(3 * triangles.size());
+  edges.reserve(3 * static_cast<std::size_t>(n));
   for (int t = 0; t < n; ++t) {
+    if (!distinct[t]) continue;
     for (int k = 0; k < 3; ++k) {
       const int a = triangles[t][k];
       const int b = triangles[t][(k + 1) % 3];
@@ -189,88 +365,221 @@ std::vector<int> validate_topology(const std::vector<Vector3i>& triangles, std::
     return std::tie(p.low, p.high, p.triangle, p.edge) < std::tie(q.low, q.high, q.triangle, q.edge);
   });
 
-  // Report the bad edge of the lowest-numbered triangle, so the message does not depend on sorting.
-  std::size_t worst_begin = edges.size();
-  std::size_t worst_end = edges.size();
-  std::vector<int> neighbours(3 * triangles.size(), -1);
+  result.neighbours.assign(3 * static_cast<std::size_t>(n), -1);
+  std::vector<char> same_direction(3 * static_cast<std::size_t>(n), 0);
+  std::vector<char> on_bad_edge(vertex_count, 0);  // an endpoint of a boundary or non-manifold edge
+  DisjointSets holes(vertex_count);
+  std::size_t boundary_count = 0;
+  std::size_t non_manifold_count = 0;
+  std::size_t conflict_count = 0;
+  // Examples: the group whose first triangle has the lowest number, so that messages do not
+  // depend on the sort.
+  std::pair<std::size_t, std::size_t> boundary_example{edges.size(), edges.size()};
+  std::pair<std::size_t, std::size_t> non_manifold_example{edges.size(), edges.size()};
+  const auto lower_triangle = [&](std::size_t candidate, std::size_t current) {
+    return current == edges.size() || edges[candidate].triangle < edges[current].triangle;
+  };
   for (std::size_t begin = 0; begin < edges.size();) {
     std::size_t end = begin + 1;
-    while (end < edges.size() && edges[end].low == edges[begin].low &&
-           edges[end].high == edges[begin].high) {
-      ++end;
-    }
-    const bool good = end - begin == 2 && edges[begin].forward != edges[begin + 1].forward;
-    if (good) {
-      const DirectedEdge& p = edges[begin];
+    while (end < edges.size() && edges[end].low == edges[begin].low && edges[end].high == edges[begin].high) ++end;
+    const DirectedEdge& p = edges[begin];
+    if (end - begin == 2) {
       const DirectedEdge& q = edges[begin + 1];
-      neighbours[3 * p.triangle + p.edge] = q.triangle;
-      neighbours[3 * q.triangle + q.edge] = p.triangle;
-    } else if (worst_begin == edges.size() || edges[begin].triangle < edges[worst_begin].triangle) {
-      worst_begin = begin;
-      worst_end = end;
+      result.neighbours[3 * p.triangle + p.edge] = q.triangle;
+      result.neighbours[3 * q.triangle + q.edge] = p.triangle;
+      if (p.forward == q.forward) {
+        same_direction[3 * p.triangle + p.edge] = 1;
+        same_direction[3 * q.triangle + q.edge] = 1;
+        ++conflict_count;
+      }
+    } else {
+      on_bad_edge[p.low] = 1;
+      on_bad_edge[p.high] = 1;
+      if (end - begin == 1) {
+        ++boundary_count;
+        holes.join(p.low, p.high);
+        if (lower_triangle(begin, boundary_example.first)) boundary_example = {begin, end};
+      } else {
+        ++non_manifold_count;
+        if (lower_triangle(begin, non_manifold_example.first)) non_manifold_example = {begin, end};
+      }
     }
     begin = end;
   }
-  if (worst_begin != edges.size()) {
-    const DirectedEdge& e = edges[worst_begin];
-    const std::size_t count = worst_end - worst_begin;
-    if (count == 1) {
-      labels.fail(labels.edge(e.low, e.high) + " of " + labels.triangle(e.triangle) +
-                  " belongs to no other triangle: the surface is not closed (hole)");
+
+  if (non_manifold_count > 0) {
+    const auto [begin, end] = non_manifold_example;
+    std::string list;
+    for (std::size_t i = begin; i < end; ++i) list += (i == begin ? "" : ", ") + names.triangle(edges[i].triangle);
+    report(Kind::non_manifold_edge, non_manifold_count,
+           "the surface is non-manifold: " + counted(non_manifold_count, "edge", "edges") +
+               " shared by more than two triangles, e.g. " + names.edge(edges[begin].low, edges[begin].high) +
+               " is shared by " + std::to_string(end - begin) + " triangles (" + list + ")");
+  }
+  if (boundary_count > 0) {
+    // A hole is a connected set of boundary edges.
+    std::set<std::size_t> hole_roots;
+    for (std::size_t begin = 0; begin < edges.size();) {
+      std::size_t end = begin + 1;
+      while (end < edges.size() && edges[end].low == edges[begin].low && edges[end].high == edges[begin].high) ++end;
+      if (end - begin == 1) hole_roots.insert(holes.find(edges[begin].low));
+      begin = end;
     }
-    if (count > 2) {
-      std::string list;
-      for (std::size_t i = worst_begin; i < worst_end; ++i) {
-        list += (i == worst_begin ? "" : ", ") + labels.triangle(edges[i].triangle);
-      }
-      labels.fail(labels.edge(e.low, e.high) + " is shared by " + std::to_string(count) +
-                  " triangles (" + list + "): the surface is non-manifold");
-    }
+    const DirectedEdge& e = edges[boundary_example.first];
     const int from = triangles[e.triangle][e.edge];
     const int to = triangles[e.triangle][(e.edge + 1) % 3];
-    labels.fail(labels.triangle(e.triangle) + " and " + labels.triangle(edges[worst_begin + 1].triangle) +
-                " both traverse " + labels.edge(from, to, " -> ") +
-                " in the same direction: inconsistent orientation (a flipped triangle)");
+    report(Kind::boundary_edge, boundary_count,
+           "the surface is not closed: " + counted(hole_roots.size(), "hole", "holes") + " (" +
+               counted(boundary_count, "boundary edge", "boundary edges") +
+               ", each in one triangle only), e.g. " + names.edge(from, to) + " from " + names.point(from) + " to " +
+               names.point(to) + " belongs only to " + names.triangle(e.triangle));
   }
 
-  // Across edge (a → b) of t, the neighbour's corners at a and b join t's corners at a and b.
-  DisjointSets fans(3 * triangles.size());
-  for (int t = 0; t < n; ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int u = neighbours[3 * t + k];
-      const int a = triangles[t][k];
-      const int b = triangles[t][(k + 1) % 3];
-      for (int m = 0; m < 3; ++m) {
-        if (triangles[u][m] == a) fans.join(3 * t + k, 3 * u + m);
-        if (triangles[u][m] == b) fans.join(3 * t + (k + 1) % 3, 3 * u + m);
+  if (conflict_count > 0) {
+    // Two-colour the triangles across two-triangle edges: a same-direction edge joins opposite
+    // colours. In each connected piece the smaller colour class is the flipped set.
+    std::vector<signed char> colour(n, -1);
+    std::vector<int> piece(n, -1);
+    std::vector<std::array<std::size_t, 2>> piece_sizes;
+    bool non_orientable = false;
+    std::vector<int> queue;
+    for (int seed = 0; seed < n; ++seed) {
+      if (!distinct[seed] || colour[seed] >= 0) continue;
+      const int id = static_cast<int>(piece_sizes.size());
+      piece_sizes.push_back({0, 0});
+      colour[seed] = 0;
+      piece[seed] = id;
+      queue.assign(1, seed);
+      for (std::size_t head = 0; head < queue.size(); ++head) {
+        const int t = queue[head];
+        ++piece_sizes[id][colour[t]];
+        for (int k = 0; k < 3; ++k) {
+          const int u = result.neighbours[3 * t + k];
+          if (u < 0) continue;
+          const signed char wanted = static_cast<signed char>(colour[t] ^ same_direction[3 * t + k]);
+          if (colour[u] < 0) {
+            colour[u] = wanted;
+            piece[u] = id;
+            queue.push_back(u);
+          } else if (colour[u] != wanted) {
+            non_orientable = true;
+          }
+        }
       }
     }
-  }
-  std::vector<std::size_t> fan_of_vertex(vertex_count, std::numeric_limits<std::size_t>::max());
-  std::vector<int> triangle_of_vertex(vertex_count, -1);
-  int worst_vertex = -1;
-  int first_triangle = -1;
-  int other_triangle = -1;
-  for (int t = 0; t < n; ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int v = triangles[t][k];
-      const std::size_t fan = fans.find(3 * t + k);
-      if (triangle_of_vertex[v] < 0) {
-        fan_of_vertex[v] = fan;
-        triangle_of_vertex[v] = t;
-      } else if (fan_of_vertex[v] != fan && (worst_vertex < 0 || v < worst_vertex)) {
-        worst_vertex = v;
-        first_triangle = triangle_of_vertex[v];
-        other_triangle = t;
+    const auto flipped = [&](int t) {
+      const auto& sizes = piece_sizes[piece[t]];
+      const int minority = sizes[1] <= sizes[0] ? 1 : 0;
+      return colour[t] == minority;
+    };
+    std::size_t flipped_count = 0;
+    for (int t = 0; t < n; ++t) {
+      if (colour[t] >= 0 && flipped(t)) ++flipped_count;
+    }
+    // The example: the lowest flipped triangle on a same-direction edge (any such triangle
+    // when the surface is non-orientable).
+    int example = -1;
+    int example_edge = 0;
+    for (int t = 0; t < n && example < 0; ++t) {
+      if (colour[t] < 0 || (!non_orientable && !flipped(t))) continue;
+      for (int k = 0; k < 3; ++k) {
+        if (same_direction[3 * t + k]) {
+          example = t;
+          example_edge = k;
+          break;
+        }
       }
     }
+    const int from = triangles[example][example_edge];
+    const int to = triangles[example][(example_edge + 1) % 3];
+    const int other = result.neighbours[3 * example + example_edge];
+    std::string what = "inconsistent orientation: ";
+    if (non_orientable) {
+      what += "the surface is non-orientable (no set of flips makes it consistent; " +
+              counted(conflict_count, "edge is", "edges are") + " traversed in the same direction by both triangles)";
+    } else {
+      what += counted(flipped_count, "triangle", "triangles") + " flipped against " +
+              (flipped_count == 1 ? "its" : "their") + " neighbours (" +
+              counted(conflict_count, "edge", "edges") + " traversed in the same direction by both triangles)";
+    }
+    what += ", e.g. " + names.triangle(example) + " and " + names.triangle(other) + " both traverse " +
+            names.edge(from, to, " -> ");
+    report(Kind::inconsistent_orientation, non_orientable ? conflict_count : flipped_count, what);
   }
-  if (worst_vertex >= 0) {
-    labels.fail(labels.vertex(worst_vertex) + " is non-manifold: its triangles form separate fans (" +
-                labels.triangle(first_triangle) + " and " + labels.triangle(other_triangle) +
-                " touch only at that vertex)");
+
+  // Around each vertex the triangles must form one fan: corners meeting across an edge join.
+  {
+    DisjointSets fans(3 * static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const int u = result.neighbours[3 * t + k];
+        if (u < 0) continue;
+        const int a = triangles[t][k];
+        const int b = triangles[t][(k + 1) % 3];
+        for (int m = 0; m < 3; ++m) {
+          if (triangles[u][m] == a) fans.join(3 * t + k, 3 * u + m);
+          if (triangles[u][m] == b) fans.join(3 * t + (k + 1) % 3, 3 * u + m);
+        }
+      }
+    }
+    std::vector<std::size_t> fan_of_vertex(vertex_count, std::numeric_limits<std::size_t>::max());
+    std::vector<int> triangle_of_vertex(vertex_count, -1);
+    std::vector<char> reported(vertex_count, 0);
+    std::size_t count = 0;
+    int worst_vertex = -1;
+    int first_triangle = -1;
+    int other_triangle = -1;
+    for (int t = 0; t < n; ++t) {
+      if (!distinct[t]) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int v = triangles[t][k];
+        if (on_bad_edge[v]) continue;
+        const std::size_t fan = fans.find(3 * static_cast<std::size_t>(t) + k);
+        if (triangle_of_vertex[v] < 0) {
+          fan_of_vertex[v] = fan;
+          triangle_of_vertex[v] = t;
+        } else if (fan_of_vertex[v] != fan && !reported[v]) {
+          reported[v] = 1;
+          ++count;
+          if (worst_vertex < 0 || v < worst_vertex) {
+            worst_vertex = v;
+            first_triangle = triangle_of_vertex[v];
+            other_triangle = t;
+          }
+        }
+      }
+    }
+    if (count > 0) {
+      report(Kind::non_manifold_vertex, count,
+             counted(count, "non-manifold vertex", "non-manifold vertices") +
+                 " (its triangles form separate fans that touch only there), e.g. " + names.vertex(worst_vertex) +
+                 " at " + names.point(worst_vertex) + ": " + names.triangle(first_triangle) + " and " +
+                 names.triangle(other_triangle) + " are in different fans");
+    }
   }
-  return neighbours;
+
+  // The volume's sign means something only on a closed, consistently oriented surface.
+  const bool closed = std::none_of(result.defects.begin(), result.defects.end(), [](const SurfaceDefect& d) {
+                        return d.kind == Kind::non_finite_coordinate || d.kind == Kind::index_out_of_range ||
+                               d.kind == Kind::non_manifold_edge || d.kind == Kind::boundary_edge ||
+                               d.kind == Kind::inconsistent_orientation;
+                      });
+  if (closed) {
+    // Divergence theorem about the box centre, which keeps the triple products well scaled.
+    const Vector3d origin = 0.5 * (lower + upper);
+    for (const Vector3i& triangle : triangles) {
+      const Vector3d a = vertices[triangle[0]] - origin;
+      const Vector3d b = vertices[triangle[1]] - origin;
+      const Vector3d c = vertices[triangle[2]] - origin;
+      result.volume_m3 += a.dot(b.cross(c)) / 6;
+    }
+    if (!(result.volume_m3 > 0)) {
+      report(Kind::inward_orientation, triangles.size(),
+             "the surface encloses a non-positive volume (" + format_number(result.volume_m3) +
+                 " m^3): its triangles are oriented inward (expected counter-clockwise seen from outside)");
+    }
+  }
+  return result;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -608,107 +917,84 @@ std::string element_type_name(int type) {
 
 // ---------------------------------------------------------------------------------------------
 
-TriangleSurface::TriangleSurface(std::vector<Vector3d> vertices, std::vector<Vector3i> triangles,
-                                 const std::string& source)
-    : TriangleSurface(std::move(vertices), std::move(triangles), source, {}, {}) {}
-
-TriangleSurface::TriangleSurface(std::vector<Vector3d> vertices, std::vector<Vector3i> triangles,
-                                 const std::string& source, const std::vector<long long>& vertex_tags,
-                                 const std::vector<long long>& triangle_tags)
-    : vertices_(std::move(vertices)), triangles_(std::move(triangles)) {
-  const Labels labels(source, vertex_tags, triangle_tags);
-  if (triangles_.empty()) labels.fail("the surface has no triangles");
-  if (triangles_.size() > static_cast<std::size_t>(std::numeric_limits<int>::max() / 3)) {
-    labels.fail("too many triangles (" + std::to_string(triangles_.size()) + ")");
+const char* to_string(SurfaceDefectKind kind) {
+  switch (kind) {
+    case SurfaceDefectKind::no_triangles: return "no triangles";
+    case SurfaceDefectKind::too_large: return "too large";
+    case SurfaceDefectKind::non_finite_coordinate: return "non-finite coordinate";
+    case SurfaceDefectKind::index_out_of_range: return "index out of range";
+    case SurfaceDefectKind::degenerate_triangle: return "degenerate triangle";
+    case SurfaceDefectKind::duplicate_triangle: return "duplicate triangle";
+    case SurfaceDefectKind::duplicate_vertex: return "duplicated vertex";
+    case SurfaceDefectKind::non_manifold_edge: return "non-manifold edge";
+    case SurfaceDefectKind::boundary_edge: return "hole (boundary edge)";
+    case SurfaceDefectKind::inconsistent_orientation: return "inconsistent orientation";
+    case SurfaceDefectKind::non_manifold_vertex: return "non-manifold vertex";
+    case SurfaceDefectKind::inward_orientation: return "inward orientation";
   }
-  const int vertex_count = static_cast<int>(std::min<std::size_t>(vertices_.size(), std::numeric_limits<int>::max()));
-  for (int v = 0; v < vertex_count; ++v) {
-    if (!vertices_[v].allFinite()) labels.fail(labels.vertex(v) + " has a non-finite coordinate");
-  }
-  const int n = static_cast<int>(triangles_.size());
-  Vector3d lower = Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Vector3d upper = -lower;
-  for (int t = 0; t < n; ++t) {
-    const Vector3i& triangle = triangles_[t];
-    for (int k = 0; k < 3; ++k) {
-      if (triangle[k] < 0 || triangle[k] >= vertex_count) {
-        labels.fail(labels.triangle(t) + " refers to vertex " + std::to_string(triangle[k]) +
-                    ", out of range [0, " + std::to_string(vertex_count) + ")");
-      }
-      lower = lower.cwiseMin(vertices_[triangle[k]]);
-      upper = upper.cwiseMax(vertices_[triangle[k]]);
-    }
-    if (triangle[0] == triangle[1] || triangle[1] == triangle[2] || triangle[2] == triangle[0]) {
-      labels.fail(labels.triangle(t) + " is degenerate: it repeats vertex " +
-                  std::to_string(triangle[0] == triangle[1] ? triangle[0] : triangle[2]));
-    }
-  }
-
-  // Degenerate triangles have no normal; "zero" is relative to the size of the surface.
-  const double minimum_area = degenerate_area_factor * (upper - lower).squaredNorm();
-  face_normals_.resize(n);
-  for (int t = 0; t < n; ++t) {
-    const Vector3d& a = vertices_[triangles_[t][0]];
-    const Vector3d normal = (vertices_[triangles_[t][1]] - a).cross(vertices_[triangles_[t][2]] - a);
-    const double area = 0.5 * normal.norm();
-    if (!(area > minimum_area)) {
-      labels.fail(labels.triangle(t) + " is degenerate: area " + format_number(area) +
-                  " m^2 <= 1e-14 * (bounding-box diagonal)^2 = " + format_number(minimum_area) + " m^2");
-    }
-    face_normals_[t] = normal / (2 * area);
-    area_m2_ += area;
-  }
-
-  {
-    std::vector<std::pair<std::array<int, 3>, int>> sorted(n);
-    for (int t = 0; t < n; ++t) {
-      std::array<int, 3> key{triangles_[t][0], triangles_[t][1], triangles_[t][2]};
-      std::sort(key.begin(), key.end());
-      sorted[t] = {key, t};
-    }
-    std::sort(sorted.begin(), sorted.end());
-    for (int i = 1; i < n; ++i) {
-      if (sorted[i].first == sorted[i - 1].first) {
-        labels.fail(labels.triangle(sorted[i - 1].second) + " and " + labels.triangle(sorted[i].second) +
-                    " are duplicates (same three vertices)");
-      }
-    }
-  }
-
-  const std::vector<int> neighbours = validate_topology(triangles_, vertices_.size(), labels);
-
-  // Divergence theorem about the box centre, which keeps the triple products well scaled.
-  const Vector3d origin = 0.5 * (lower + upper);
-  for (const Vector3i& triangle : triangles_) {
-    const Vector3d a = vertices_[triangle[0]] - origin;
-    const Vector3d b = vertices_[triangle[1]] - origin;
-    const Vector3d c = vertices_[triangle[2]] - origin;
-    volume_m3_ += a.dot(b.cross(c)) / 6;
-  }
-  if (!(volume_m3_ > 0)) {
-    labels.fail("the surface encloses a non-positive volume (" + format_number(volume_m3_) +
-                " m^3): its triangles are oriented inward (expected counter-clockwise seen from outside)");
-  }
-
-  vertex_normals_.assign(vertices_.size(), Vector3d::Zero());
-  edge_normals_.resize(3 * triangles_.size());
-  for (int t = 0; t < n; ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const Vector3d& corner = vertices_[triangles_[t][k]];
-      const Vector3d along = vertices_[triangles_[t][(k + 1) % 3]] - corner;
-      const Vector3d across = vertices_[triangles_[t][(k + 2) % 3]] - corner;
-      const double angle = std::atan2(along.cross(across).norm(), along.dot(across));
-      vertex_normals_[triangles_[t][k]] += angle * face_normals_[t];
-      edge_normals_[3 * t + k] = (face_normals_[t] + face_normals_[neighbours[3 * t + k]]).normalized();
-    }
-  }
-  for (Vector3d& normal : vertex_normals_) {
-    if (normal.squaredNorm() > 0) normal.normalize();
-  }
-  build_tree();
+  return "unknown defect";
 }
 
-TriangleSurface TriangleSurface::from_msh(const std::string& path, const std::vector<std::string>& groups) {
+std::vector<SurfaceDefect> validate_surface(const std::vector<Vector3d>& vertices, const std::vector<Vector3i>& triangles,
+                                            const std::string& source, const SurfaceLabels& labels) {
+  return analyse(vertices, triangles, source, labels).defects;
+}
+
+std::vector<int> coincident_vertices(const std::vector<Vector3d>& vertices, double tolerance_m,
+                                     const std::vector<char>& used) {
+  const int count = static_cast<int>(vertices.size());
+  std::vector<int> representative(vertices.size());
+  std::iota(representative.begin(), representative.end(), 0);
+  const auto active = [&](int v) {
+    return vertices[v].allFinite() && (used.empty() || (static_cast<std::size_t>(v) < used.size() && used[v]));
+  };
+  Vector3d lower = Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Vector3d upper = -lower;
+  for (int v = 0; v < count; ++v) {
+    if (!active(v)) continue;
+    lower = lower.cwiseMin(vertices[v]);
+    upper = upper.cwiseMax(vertices[v]);
+  }
+  if (!(lower[0] <= upper[0])) return representative;
+  const double tolerance = tolerance_m > 0 ? tolerance_m : 0.0;  // NaN and negative: exact
+  // Grid cells at least as wide as the tolerance: points within reach lie in the 27 cells
+  // around. The floor on the width keeps cell indices well inside 64 bits.
+  const double width = std::max({tolerance, 1e-15 * (upper - lower).norm(), std::numeric_limits<double>::min()});
+  using Cell = std::array<long long, 3>;
+  struct CellHash {
+    std::size_t operator()(const Cell& c) const {
+      std::size_t h = std::hash<long long>()(c[0]);
+      h = h * 1000003u ^ std::hash<long long>()(c[1]);
+      return h * 1000003u ^ std::hash<long long>()(c[2]);
+    }
+  };
+  std::unordered_map<Cell, std::vector<int>, CellHash> cells;
+  for (int v = 0; v < count; ++v) {
+    if (!active(v)) continue;
+    Cell cell;
+    for (int i = 0; i < 3; ++i) cell[i] = static_cast<long long>(std::floor((vertices[v][i] - lower[i]) / width));
+    int best = -1;
+    for (long long dx = -1; dx <= 1; ++dx) {
+      for (long long dy = -1; dy <= 1; ++dy) {
+        for (long long dz = -1; dz <= 1; ++dz) {
+          const auto found = cells.find({cell[0] + dx, cell[1] + dy, cell[2] + dz});
+          if (found == cells.end()) continue;
+          for (const int r : found->second) {
+            if ((best < 0 || r < best) && (vertices[r] - vertices[v]).norm() <= tolerance) best = r;
+          }
+        }
+      }
+    }
+    if (best >= 0) {
+      representative[v] = best;
+    } else {
+      cells[cell].push_back(v);
+    }
+  }
+  return representative;
+}
+
+SurfaceData read_msh_surface(const std::string& path, const std::vector<std::string>& groups) {
   const MshContent content = read_msh(path);
 
   std::set<int> selected;
@@ -767,15 +1053,17 @@ TriangleSurface TriangleSurface::from_msh(const std::string& path, const std::ve
   }
 
   // Only the nodes the triangles use, numbered in increasing gmsh tag order.
-  std::vector<long long> vertex_tags;
+  SurfaceData data;
+  data.labels.vertex_kind = "gmsh node";
+  data.labels.triangle_kind = "gmsh element";
+  std::vector<long long>& vertex_tags = data.labels.vertex_tags;
   vertex_tags.reserve(3 * kept.size());
   for (const RawElement* element : kept) {
     vertex_tags.insert(vertex_tags.end(), element->nodes.begin(), element->nodes.end());
   }
   std::sort(vertex_tags.begin(), vertex_tags.end());
   vertex_tags.erase(std::unique(vertex_tags.begin(), vertex_tags.end()), vertex_tags.end());
-  std::vector<Vector3d> vertices;
-  vertices.reserve(vertex_tags.size());
+  data.vertices.reserve(vertex_tags.size());
   std::unordered_map<long long, int> index_of;
   index_of.reserve(vertex_tags.size());
   for (long long tag : vertex_tags) {
@@ -784,18 +1072,71 @@ TriangleSurface TriangleSurface::from_msh(const std::string& path, const std::ve
       throw std::invalid_argument(path + ": node " + std::to_string(tag) +
                                   " is used by a triangle but missing from $Nodes");
     }
-    index_of[tag] = static_cast<int>(vertices.size());
-    vertices.push_back(node->second);
+    index_of[tag] = static_cast<int>(data.vertices.size());
+    data.vertices.push_back(node->second);
   }
-  std::vector<Vector3i> triangles;
-  std::vector<long long> triangle_tags;
-  triangles.reserve(kept.size());
-  triangle_tags.reserve(kept.size());
+  data.triangles.reserve(kept.size());
+  data.labels.triangle_tags.reserve(kept.size());
   for (const RawElement* element : kept) {
-    triangles.emplace_back(index_of[element->nodes[0]], index_of[element->nodes[1]], index_of[element->nodes[2]]);
-    triangle_tags.push_back(element->tag);
+    data.triangles.emplace_back(index_of[element->nodes[0]], index_of[element->nodes[1]], index_of[element->nodes[2]]);
+    data.labels.triangle_tags.push_back(element->tag);
   }
-  return TriangleSurface(std::move(vertices), std::move(triangles), path, vertex_tags, triangle_tags);
+  return data;
+}
+
+TriangleSurface::TriangleSurface(std::vector<Vector3d> vertices, std::vector<Vector3i> triangles,
+                                 const std::string& source)
+    : TriangleSurface(std::move(vertices), std::move(triangles), source, SurfaceLabels{}) {}
+
+TriangleSurface::TriangleSurface(std::vector<Vector3d> vertices, std::vector<Vector3i> triangles,
+                                 const std::string& source, const SurfaceLabels& labels)
+    : vertices_(std::move(vertices)), triangles_(std::move(triangles)) {
+  const Analysis analysis = analyse(vertices_, triangles_, source, labels);
+  if (!analysis.defects.empty()) {
+    std::string message = analysis.defects.front().message;
+    if (analysis.defects.size() > 1) {
+      message += " (further defects:";
+      for (std::size_t i = 1; i < analysis.defects.size(); ++i) {
+        message += std::string(i == 1 ? " " : ", ") + to_string(analysis.defects[i].kind);
+      }
+      message += ")";
+    }
+    throw std::invalid_argument(message);
+  }
+  const std::vector<int>& neighbours = analysis.neighbours;
+  volume_m3_ = analysis.volume_m3;
+
+  const int n = static_cast<int>(triangles_.size());
+  face_normals_.resize(n);
+  for (int t = 0; t < n; ++t) {
+    const Vector3d& a = vertices_[triangles_[t][0]];
+    const Vector3d normal = (vertices_[triangles_[t][1]] - a).cross(vertices_[triangles_[t][2]] - a);
+    const double area = 0.5 * normal.norm();
+    face_normals_[t] = normal / (2 * area);
+    area_m2_ += area;
+  }
+
+  vertex_normals_.assign(vertices_.size(), Vector3d::Zero());
+  edge_normals_.resize(3 * triangles_.size());
+  for (int t = 0; t < n; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const Vector3d& corner = vertices_[triangles_[t][k]];
+      const Vector3d along = vertices_[triangles_[t][(k + 1) % 3]] - corner;
+      const Vector3d across = vertices_[triangles_[t][(k + 2) % 3]] - corner;
+      const double angle = std::atan2(along.cross(across).norm(), along.dot(across));
+      vertex_normals_[triangles_[t][k]] += angle * face_normals_[t];
+      edge_normals_[3 * t + k] = (face_normals_[t] + face_normals_[neighbours[3 * t + k]]).normalized();
+    }
+  }
+  for (Vector3d& normal : vertex_normals_) {
+    if (normal.squaredNorm() > 0) normal.normalize();
+  }
+  build_tree();
+}
+
+TriangleSurface TriangleSurface::from_msh(const std::string& path, const std::vector<std::string>& groups) {
+  SurfaceData data = read_msh_surface(path, groups);
+  return TriangleSurface(std::move(data.vertices), std::move(data.triangles), path, data.labels);
 }
 
 void TriangleSurface::build_tree() {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -588,6 +590,203 @@ TEST(TriangleSurface, RejectsDegenerateAndPinchedSurfaces) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// validate_surface: every defect, counted, with one example each.
+
+/// The kinds of the defects found, in order.
+std::vector<SurfaceDefectKind> kinds(const std::vector<SurfaceDefect>& defects) {
+  std::vector<SurfaceDefectKind> result;
+  for (const SurfaceDefect& defect : defects) result.push_back(defect.kind);
+  return result;
+}
+
+bool mentions(const SurfaceDefect& defect, const std::string& fragment) {
+  return defect.message.find(fragment) != std::string::npos;
+}
+
+TEST(ValidateSurface, ValidSurfacesHaveNoDefects) {
+  const Mesh sphere = icosphere(2, 0.03);
+  EXPECT_TRUE(validate_surface(sphere.vertices, sphere.triangles).empty());
+  const Mesh ring = torus(24, 12, 1.0, 0.3);
+  EXPECT_TRUE(validate_surface(ring.vertices, ring.triangles).empty());
+  // An unused vertex, even a non-finite one far away, is not a defect of the surface... but a
+  // non-finite coordinate anywhere is reported.
+  Mesh extra = sphere;
+  extra.vertices.push_back({5, 5, 5});
+  EXPECT_TRUE(validate_surface(extra.vertices, extra.triangles).empty());
+  extra.vertices.back().x() = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(kinds(validate_surface(extra.vertices, extra.triangles)),
+            std::vector<SurfaceDefectKind>{SurfaceDefectKind::non_finite_coordinate});
+}
+
+TEST(ValidateSurface, CountsHolesAndBoundaryEdges) {
+  const Mesh good = icosphere(1, 1.0);
+  // Two triangles far apart: two holes of three edges each.
+  Mesh two = good;
+  const Vector3i first = two.triangles[0];
+  int far = -1;
+  for (int t = 1; t < static_cast<int>(good.triangles.size()) && far < 0; ++t) {
+    bool touches = false;
+    for (int k = 0; k < 3; ++k) {
+      for (int m = 0; m < 3; ++m) touches = touches || good.triangles[t][k] == first[m];
+    }
+    if (!touches) far = t;
+  }
+  ASSERT_GT(far, 0);
+  two.triangles.erase(two.triangles.begin() + far);
+  two.triangles.erase(two.triangles.begin());
+  auto defects = validate_surface(two.vertices, two.triangles, "two.obj");
+  ASSERT_EQ(kinds(defects), std::vector<SurfaceDefectKind>{SurfaceDefectKind::boundary_edge});
+  EXPECT_EQ(defects[0].count, 6u);
+  EXPECT_TRUE(mentions(defects[0], "two.obj: the surface is not closed: 2 holes (6 boundary edges")) << defects[0].message;
+  // The example edge with its end points.
+  EXPECT_TRUE(mentions(defects[0], " from (")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], " belongs only to triangle ")) << defects[0].message;
+
+  // Two neighbours: one hole of four edges.
+  Mesh adjacent = good;
+  int neighbour = -1;
+  for (int t = 1; t < static_cast<int>(good.triangles.size()) && neighbour < 0; ++t) {
+    int shared = 0;
+    for (int k = 0; k < 3; ++k) {
+      for (int m = 0; m < 3; ++m) shared += good.triangles[t][k] == first[m];
+    }
+    if (shared == 2) neighbour = t;
+  }
+  adjacent.triangles.erase(adjacent.triangles.begin() + neighbour);
+  adjacent.triangles.erase(adjacent.triangles.begin());
+  defects = validate_surface(adjacent.vertices, adjacent.triangles);
+  ASSERT_EQ(defects.size(), 1u);
+  EXPECT_EQ(defects[0].count, 4u);
+  EXPECT_TRUE(mentions(defects[0], "1 hole (4 boundary edges")) << defects[0].message;
+}
+
+TEST(ValidateSurface, CountsFlippedTrianglesAndFindsNonOrientableSurfaces) {
+  const Mesh good = icosphere(1, 1.0);
+  Mesh flipped = good;
+  for (const int t : {3, 10, 11, 40}) std::swap(flipped.triangles[t][1], flipped.triangles[t][2]);
+  auto defects = validate_surface(flipped.vertices, flipped.triangles);
+  ASSERT_EQ(kinds(defects), std::vector<SurfaceDefectKind>{SurfaceDefectKind::inconsistent_orientation});
+  EXPECT_EQ(defects[0].count, 4u);
+  EXPECT_TRUE(mentions(defects[0], "4 triangles flipped against their neighbours")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "e.g. triangle 3 and triangle ")) << defects[0].message;
+
+  // All but one flipped: the one is the odd one out.
+  Mesh most = good;
+  for (std::size_t t = 1; t < most.triangles.size(); ++t) std::swap(most.triangles[t][1], most.triangles[t][2]);
+  defects = validate_surface(most.vertices, most.triangles);
+  ASSERT_EQ(defects.size(), 1u);
+  EXPECT_TRUE(mentions(defects[0], "1 triangle flipped against its neighbours")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "e.g. triangle 0 and")) << defects[0].message;
+
+  // The real projective plane as a hemi-icosahedron: the icosahedron with antipodal vertices
+  // identified (6 vertices, 10 triangles). Closed and manifold, but no orientation exists.
+  const Mesh ico = icosphere(0, 1.0);
+  std::vector<int> representative(ico.vertices.size());
+  for (std::size_t v = 0; v < ico.vertices.size(); ++v) {
+    for (std::size_t u = 0; u < ico.vertices.size(); ++u) {
+      if ((ico.vertices[u] + ico.vertices[v]).norm() < 1e-12) representative[v] = static_cast<int>(std::min(u, v));
+    }
+  }
+  std::map<int, int> index;
+  Mesh plane;
+  for (std::size_t v = 0; v < ico.vertices.size(); ++v) {
+    if (representative[v] == static_cast<int>(v)) {
+      index[static_cast<int>(v)] = static_cast<int>(plane.vertices.size());
+      plane.vertices.push_back(ico.vertices[v]);
+    }
+  }
+  std::set<std::array<int, 3>> seen;
+  for (const Vector3i& t : ico.triangles) {
+    const Vector3i mapped(index[representative[t[0]]], index[representative[t[1]]], index[representative[t[2]]]);
+    std::array<int, 3> key{mapped[0], mapped[1], mapped[2]};
+    std::sort(key.begin(), key.end());
+    if (seen.insert(key).second) plane.triangles.push_back(mapped);
+  }
+  ASSERT_EQ(plane.vertices.size(), 6u);
+  ASSERT_EQ(plane.triangles.size(), 10u);
+  defects = validate_surface(plane.vertices, plane.triangles, "plane");
+  ASSERT_FALSE(defects.empty());
+  EXPECT_EQ(defects[0].kind, SurfaceDefectKind::inconsistent_orientation);
+  EXPECT_TRUE(mentions(defects[0], "non-orientable")) << defects[0].message;
+  EXPECT_THROW(TriangleSurface(plane.vertices, plane.triangles), std::invalid_argument);
+}
+
+TEST(ValidateSurface, ListsEveryDefectInOrderWithFileLabels) {
+  const Mesh good = icosphere(1, 1.0);
+  Mesh broken = good;
+  // A seam: vertex 0 copied, the copy used by one triangle of its fan (duplicate vertex and a
+  // hole), triangle 30 repeated (duplicate, non-manifold edges), triangle 50 with a repeated
+  // vertex (degenerate).
+  broken.vertices.push_back(good.vertices[0]);
+  int fan = -1;
+  for (int t = 0; t < static_cast<int>(good.triangles.size()) && fan < 0; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      if (good.triangles[t][k] == 0) {
+        fan = t;
+        broken.triangles[t][k] = static_cast<int>(good.vertices.size());
+      }
+    }
+  }
+  broken.triangles.push_back(good.triangles[30]);
+  broken.triangles[50][2] = broken.triangles[50][0];
+
+  SurfaceLabels labels;
+  labels.vertex_kind = "OBJ vertex";
+  labels.triangle_kind = "OBJ face";
+  for (std::size_t v = 0; v < broken.vertices.size(); ++v) labels.vertex_tags.push_back(static_cast<long long>(v) + 1);
+  for (std::size_t t = 0; t < broken.triangles.size(); ++t) labels.triangle_tags.push_back(static_cast<long long>(t) + 1);
+
+  const auto defects = validate_surface(broken.vertices, broken.triangles, "organ.obj", labels);
+  ASSERT_EQ(kinds(defects), (std::vector<SurfaceDefectKind>{
+                                SurfaceDefectKind::degenerate_triangle, SurfaceDefectKind::duplicate_triangle,
+                                SurfaceDefectKind::duplicate_vertex, SurfaceDefectKind::non_manifold_edge,
+                                SurfaceDefectKind::boundary_edge}))
+      << defects.front().message;
+  for (const SurfaceDefect& defect : defects) {
+    EXPECT_EQ(defect.message.rfind("organ.obj: ", 0), 0u) << defect.message;
+    EXPECT_FALSE(std::string(to_string(defect.kind)).empty());
+  }
+  EXPECT_TRUE(mentions(defects[0], "triangle 50 (OBJ face 51) repeats vertex")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[1], "triangle 30 (OBJ face 31) and triangle 80 (OBJ face 81) are duplicates"))
+      << defects[1].message;
+  EXPECT_TRUE(mentions(defects[2], "vertex 0 (OBJ vertex 1) and vertex 42 (OBJ vertex 43) at (")) << defects[2].message;
+  EXPECT_TRUE(mentions(defects[3], "(OBJ vertices ")) << defects[3].message;
+  EXPECT_EQ(defects[3].count, 3u);
+
+  // The constructor throws the first and names the others.
+  try {
+    TriangleSurface(broken.vertices, broken.triangles, "organ.obj", labels);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& error) {
+    const std::string message = error.what();
+    EXPECT_EQ(message.rfind(defects[0].message, 0), 0u) << message;
+    EXPECT_NE(message.find("(further defects: duplicate triangle, duplicated vertex, non-manifold edge, "
+                           "hole (boundary edge))"),
+              std::string::npos)
+        << message;
+  }
+  // No triangles at all.
+  const auto nothing = validate_surface({}, {}, "empty.stl");
+  ASSERT_EQ(nothing.size(), 1u);
+  EXPECT_EQ(nothing[0].message, "empty.stl: the surface has no triangles");
+}
+
+TEST(ValidateSurface, CoincidentVerticesJoinTheLowestWithinTolerance) {
+  const std::vector<Vector3d> points{{0, 0, 0}, {1, 0, 0}, {1e-7, 0, 0}, {1, 5e-8, 0},
+                                     {0, 0, 0}, {std::nan(""), 0, 0}, {2, 2, 2}, {2, 2, 2}};
+  EXPECT_EQ(coincident_vertices(points, 0), (std::vector<int>{0, 1, 2, 3, 0, 5, 6, 6}));
+  EXPECT_EQ(coincident_vertices(points, 2e-7), (std::vector<int>{0, 1, 0, 1, 0, 5, 6, 6}));
+  // Vertices left out by `used` keep their own index and attract no others.
+  std::vector<char> used(points.size(), 1);
+  used[0] = 0;
+  EXPECT_EQ(coincident_vertices(points, 2e-7, used), (std::vector<int>{0, 1, 2, 1, 2, 5, 6, 6}));
+  // A point within reach of two representatives joins the lower one, whatever the grid.
+  const std::vector<Vector3d> chain{{0.3, 0, 0}, {0, 0, 0}, {0.2, 0, 0}};
+  EXPECT_EQ(coincident_vertices(chain, 0.25), (std::vector<int>{0, 1, 0}));
+  EXPECT_TRUE(coincident_vertices({}, 1).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
 // gmsh files.
 
 // The unit octahedron as MSH 4.1: two surface entities ("top", "bottom"), nodes in two blocks,
@@ -778,6 +977,22 @@ TEST(TriangleSurfaceMsh, RejectsBrokenFilesNamingThem) {
     const std::string prefix = directory.file("prefix.msh", hemisphere.substr(0, length));
     expect_error([&] { TriangleSurface::from_msh(prefix); }, {prefix});
   }
+}
+
+TEST(TriangleSurfaceMsh, ReadMshSurfaceKeepsGmshLabelsWithoutValidating) {
+  const TemporaryDirectory directory;
+  const std::string path = directory.file("octahedron.msh", octahedron_v22);
+  const SurfaceData top = read_msh_surface(path, {"top"});
+  EXPECT_EQ(top.triangles.size(), 4u);
+  EXPECT_EQ(top.labels.vertex_kind, "gmsh node");
+  EXPECT_EQ(top.labels.triangle_kind, "gmsh element");
+  EXPECT_EQ(top.labels.triangle_tags, (std::vector<long long>{11, 12, 13, 14}));
+  EXPECT_EQ(top.labels.vertex_tags, (std::vector<long long>{10, 20, 30, 40, 50}));
+  const auto defects = validate_surface(top.vertices, top.triangles, path, top.labels);
+  ASSERT_EQ(defects.size(), 1u);
+  EXPECT_TRUE(mentions(defects[0], "1 hole (4 boundary edges")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "(gmsh nodes ")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "(gmsh element 1")) << defects[0].message;
 }
 
 }  // namespace

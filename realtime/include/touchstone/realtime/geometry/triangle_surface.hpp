@@ -1,15 +1,88 @@
 #pragma once
 /// @file
 /// A closed triangle surface (an organ's boundary) with the queries node sprinkling needs:
-/// closest point with its normal, signed distance and inside/outside, through an AABB tree.
+/// closest point with its normal, signed distance and inside/outside, through an AABB tree;
+/// and the validation that every surface passes on load (DESIGN.md §6), also available as a
+/// non-throwing list of every defect (validate_surface) for `touchstone surface check`.
 /// (Collision detection, issue 5, adds OBB trees, segment queries and overlap-test counters.)
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
 namespace touchstone::realtime::geometry {
+
+/// How a file numbers its vertices and triangles, so that messages point into the file:
+/// "triangle 12 (STL facet 12)", "edge (3, 5) (gmsh nodes 40, 50)". Tags are optional: empty
+/// vectors name vertices and triangles by their index only.
+struct SurfaceLabels {
+  std::string vertex_kind = "node";          ///< singular noun, e.g. "gmsh node", "OBJ vertex"
+  std::vector<long long> vertex_tags;        ///< one per vertex, or empty
+  std::string triangle_kind = "element";     ///< singular noun, e.g. "gmsh element", "VTK cell"
+  std::vector<long long> triangle_tags;      ///< one per triangle, or empty
+};
+
+/// What can be wrong with a surface, in the order validate_surface reports them (a defect
+/// earlier in the list often causes later ones: a seam of duplicated vertices is also a hole).
+enum class SurfaceDefectKind {
+  no_triangles,
+  too_large,                 ///< more triangles or vertices than int indices address
+  non_finite_coordinate,
+  index_out_of_range,
+  degenerate_triangle,       ///< a repeated vertex index or (near-)zero area
+  duplicate_triangle,        ///< the same three vertices as another triangle, in any order
+  duplicate_vertex,          ///< two used vertices at the same point (weld an STL-like soup)
+  non_manifold_edge,         ///< an edge of more than two triangles
+  boundary_edge,             ///< an edge of one triangle only: the surface has a hole
+  inconsistent_orientation,  ///< neighbours traverse their common edge in the same direction
+  non_manifold_vertex,       ///< a vertex whose triangles form separate fans
+  inward_orientation,        ///< closed and consistent, but the enclosed volume is negative
+};
+
+/// Short name of a defect kind, e.g. "hole (boundary edge)", "non-manifold edge".
+const char* to_string(SurfaceDefectKind kind);
+
+/// One kind of defect: how often it occurs and one example, named precisely.
+struct SurfaceDefect {
+  SurfaceDefectKind kind = SurfaceDefectKind::no_triangles;
+  std::size_t count = 0;   ///< offending triangles, edges, vertices or vertex pairs
+  std::string message;     ///< "<source>: <what> ... e.g. <example with its elements>"
+};
+
+/// Every defect of the surface (vertices [m], triangles counter-clockwise seen from outside),
+/// one entry per kind in SurfaceDefectKind order; empty when the surface is valid. Checks run
+/// on whatever the earlier defects leave checkable (triangles with an index out of range are
+/// skipped by the later checks; the volume sign is checked only on a closed, manifold,
+/// consistently oriented surface). Thresholds: a triangle is degenerate when its area is
+/// <= 1e-14 · (bounding-box diagonal)², two vertices coincide within 1e-12 · diagonal.
+/// Does not throw on bad data.
+std::vector<SurfaceDefect> validate_surface(const std::vector<Eigen::Vector3d>& vertices,
+                                            const std::vector<Eigen::Vector3i>& triangles,
+                                            const std::string& source = "surface",
+                                            const SurfaceLabels& labels = {});
+
+/// For each vertex, the lowest-numbered earlier vertex within `tolerance_m` of it, or itself
+/// when there is none: the map that welding applies (vertices are visited in order and join
+/// the lowest representative in reach, so the result does not depend on hashing). Non-finite
+/// vertices, and vertices with `used` false when `used` is given, map to themselves.
+std::vector<int> coincident_vertices(const std::vector<Eigen::Vector3d>& vertices, double tolerance_m,
+                                     const std::vector<char>& used = {});
+
+/// A surface as a file holds it, before validation.
+struct SurfaceData {
+  std::vector<Eigen::Vector3d> vertices;   ///< [m]
+  std::vector<Eigen::Vector3i> triangles;
+  SurfaceLabels labels;                    ///< gmsh node and element tags
+};
+
+/// The triangles of a gmsh MSH 2.2/4.1 ASCII file exactly as TriangleSurface::from_msh selects
+/// them (all 2-D elements, or the physical surface groups in `groups`; MSH 2 repeats of one
+/// element for several groups kept once; only the nodes in use, in increasing tag order), not
+/// validated. Throws std::invalid_argument naming the file and line for syntax errors, and the
+/// element for anything but 3-node triangles.
+SurfaceData read_msh_surface(const std::string& path, const std::vector<std::string>& groups = {});
 
 /// Closest point on the surface to a query point.
 struct SurfaceProjection {
@@ -21,13 +94,17 @@ struct SurfaceProjection {
 
 class TriangleSurface {
  public:
-  /// Vertices [m] and triangles (counter-clockwise seen from outside). Validates: finite
-  /// coordinates, indices in range, no degenerate (zero-area) triangle, every edge shared by
-  /// exactly two triangles with opposite orientation (closed, manifold, consistently
-  /// oriented), positive enclosed volume. Throws std::invalid_argument naming `source` and the
-  /// offending triangle or edge.
+  /// Vertices [m] and triangles (counter-clockwise seen from outside). Validates as
+  /// validate_surface does (finite coordinates, indices in range, no degenerate or duplicate
+  /// triangle, no coincident vertices, every edge shared by exactly two triangles with opposite
+  /// orientation, one fan per vertex, positive enclosed volume) and throws
+  /// std::invalid_argument with the first defect's message (it names `source` and the
+  /// offending triangle, edge or vertex) followed by the kinds of the others.
   TriangleSurface(std::vector<Eigen::Vector3d> vertices, std::vector<Eigen::Vector3i> triangles,
                   const std::string& source = "surface");
+  /// The same, naming vertices and triangles with a file's own numbers in messages.
+  TriangleSurface(std::vector<Eigen::Vector3d> vertices, std::vector<Eigen::Vector3i> triangles,
+                  const std::string& source, const SurfaceLabels& labels);
 
   /// The boundary triangles of a gmsh MSH 2.2/4.1 ASCII file (all 2-D elements, or only the
   /// physical groups named in `groups` when not empty). Throws naming the file.
@@ -54,11 +131,6 @@ class TriangleSurface {
     Eigen::Vector3d lower, upper;
     int first, count;  ///< leaf: range in order_; inner: count = 0 and children at first, first + 1
   };
-  /// The public constructor with file labels: from_msh passes gmsh node and element tags so
-  /// that errors name them (empty vectors: no labels).
-  TriangleSurface(std::vector<Eigen::Vector3d> vertices, std::vector<Eigen::Vector3i> triangles,
-                  const std::string& source, const std::vector<long long>& vertex_tags,
-                  const std::vector<long long>& triangle_tags);
   void build_tree();
 
   std::vector<Eigen::Vector3d> vertices_;

@@ -1,0 +1,1215 @@
+#include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace touchstone::realtime::collision {
+
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Eigen::Vector3i;
+
+constexpr double infinity = std::numeric_limits<double>::infinity();
+
+// Traversal stacks are fixed arrays. A median split halves the triangles, so a median binary
+// tree has at most ⌈log2 n⌉ + 1 ≤ 33 levels; mean splits are allowed only in the top
+// max_mean_split_depth levels, so no binary tree exceeds 24 + 33 levels. A traversal stacks at
+// most width − 1 children per level: 57 for a binary tree, 3 · 29 for a 4-wide one.
+constexpr int max_binary_depth = 57;
+constexpr int max_stack = 96;
+constexpr int max_mean_split_depth = 24;
+// The entry grid never has more cells than this (its cells grow instead): 16 MB of entries.
+constexpr std::int64_t max_grid_cells = std::int64_t{1} << 22;
+// Boxes are widened by this fraction of the surface's bounding-box diagonal. Rounding in a box
+// test is ~1e-16 of the coordinates, so a true hit is never pruned, and 1e-9 is far too small
+// to cost a measurable number of extra tests.
+constexpr double relative_margin = 1e-9;
+// contains(): a crossing closer to the query point than this fraction of the diagonal is "on
+// the surface" for the parity test, which then defers to the pseudo-normal sign.
+constexpr double relative_surface_tolerance = 1e-9;
+
+// Closest-point features: 0 the face interior, 1 + k edge k (corner k → k + 1), 4 + k corner k.
+constexpr int face_feature = 0;
+constexpr int first_edge_feature = 1;
+constexpr int first_vertex_feature = 4;
+
+/// Closest point to p on triangle abc and the Voronoi region it lies in (Ericson, Real-Time
+/// Collision Detection, §5.1.5). The region decides which pseudo-normal contains() uses.
+inline Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c,
+                                    int& feature) noexcept {
+  const Vector3d ab = b - a;
+  const Vector3d ac = c - a;
+  const Vector3d ap = p - a;
+  const double d1 = ab.dot(ap);
+  const double d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) {
+    feature = first_vertex_feature + 0;
+    return a;
+  }
+  const Vector3d bp = p - b;
+  const double d3 = ab.dot(bp);
+  const double d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) {
+    feature = first_vertex_feature + 1;
+    return b;
+  }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    feature = first_edge_feature + 0;
+    return a + (d1 / (d1 - d3)) * ab;
+  }
+  const Vector3d cp = p - c;
+  const double d5 = ab.dot(cp);
+  const double d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) {
+    feature = first_vertex_feature + 2;
+    return c;
+  }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    feature = first_edge_feature + 2;
+    return a + (d2 / (d2 - d6)) * ac;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    feature = first_edge_feature + 1;
+    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  }
+  const double denominator = 1 / (va + vb + vc);
+  feature = face_feature;
+  return a + ab * (vb * denominator) + ac * (vc * denominator);
+}
+
+/// A ray (or segment) origin + t·direction prepared for the watertight ray–triangle test of
+/// Woop, Benthin & Wald (JCGT 2013): the coordinates are permuted so that z is the dominant
+/// direction component and sheared so that the ray becomes the z axis. In that frame the
+/// 2-D edge functions of a shared edge are computed from the same numbers in both triangles,
+/// so they are exact negatives of each other and no ray slips between two triangles.
+/// (Needs the compiler not to contract a·b − c·d into a fused multiply-add differently in
+/// different places: ISO C++ mode without -ffp-contract=fast, as this project builds.)
+struct WatertightRay {
+  Vector3d origin;
+  Vector3d direction;
+  // The sheared frame as three rows: x' = shear_x·p, y' = shear_y·p, z' = shear_z·p for p
+  // relative to the origin. Each row has one entry 1 (or 1/d_kz) and one −S or zero; the others
+  // are exact zeros, so a dot product computes exactly Woop's p_kx − S_x p_kz for every vertex,
+  // whichever triangle it belongs to.
+  Vector3d shear_x, shear_y, shear_z;
+
+  WatertightRay(const Vector3d& origin_in, const Vector3d& direction_in) noexcept
+      : origin(origin_in), direction(direction_in) {
+    int kz = 0;
+    direction.cwiseAbs().maxCoeff(&kz);
+    int kx = (kz + 1) % 3;
+    int ky = (kx + 1) % 3;
+    // Keep the winding of the projected triangles when the dominant component is negative.
+    if (direction[kz] < 0) std::swap(kx, ky);
+    shear_x = Vector3d::Zero();
+    shear_y = Vector3d::Zero();
+    shear_z = Vector3d::Zero();
+    shear_x[kx] = 1;
+    shear_x[kz] = -direction[kx] / direction[kz];
+    shear_y[ky] = 1;
+    shear_y[kz] = -direction[ky] / direction[kz];
+    shear_z[kz] = 1 / direction[kz];
+  }
+};
+
+/// Where a ray meets a triangle's plane inside the triangle (either side): t (in units of the
+/// ray's direction) and whether the ray passed exactly through an edge or a vertex (some edge
+/// function zero) — a hit then, so that nothing leaks, but possibly counted twice by parity.
+/// `in_plane`: the ray lies in the triangle's plane and touches it — no hit (its neighbours
+/// report the crossing), but a parity count cannot trust that ray.
+struct Crossing {
+  double t = 0;
+  bool on_edge = false;
+  bool in_plane = false;
+};
+
+inline bool intersect(const WatertightRay& ray, const Vector3d& a, const Vector3d& b, const Vector3d& c,
+                      Crossing& crossing) noexcept {
+  const Vector3d pa = a - ray.origin;
+  const Vector3d pb = b - ray.origin;
+  const Vector3d pc = c - ray.origin;
+  const double ax = ray.shear_x.dot(pa), ay = ray.shear_y.dot(pa);
+  const double bx = ray.shear_x.dot(pb), by = ray.shear_y.dot(pb);
+  const double cx = ray.shear_x.dot(pc), cy = ray.shear_y.dot(pc);
+  // Scaled barycentric coordinates: the signed areas seen from the ray.
+  const double u = cx * by - cy * bx;
+  const double v = ax * cy - ay * cx;
+  const double w = bx * ay - by * ax;
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  const double determinant = u + v + w;
+  crossing.on_edge = u == 0 || v == 0 || w == 0;
+  if (determinant == 0) {
+    crossing.in_plane = true;
+    return false;
+  }
+  const double scaled_t = u * ray.shear_z.dot(pa) + v * ray.shear_z.dot(pb) + w * ray.shear_z.dot(pc);
+  crossing.t = scaled_t / determinant;
+  return true;
+}
+
+/// Work done by one query, added to the caller's counters at the end (local counts avoid
+/// stores through a pointer in the loop, and vanish when `count` is false).
+struct Tally {
+  long long boxes = 0;
+  long long triangles = 0;
+};
+
+template <bool count>
+inline void report(QueryCounters* counters, const Tally& tally) noexcept {
+  if constexpr (count) {
+    counters->box_tests += tally.boxes;
+    counters->triangle_tests += tally.triangles;
+    ++counters->queries;
+  } else {
+    (void)counters;
+    (void)tally;
+  }
+}
+
+/// Fixed, irrational-looking unit directions for the parity rays: a mesh built on a grid or
+/// with symmetry is unlikely to have edges exactly along them.
+const std::array<Vector3d, 4>& parity_directions() {
+  static const std::array<Vector3d, 4> directions = {
+      Vector3d(0.5366563145999495, 0.6549300393463394, 0.5321858898237543).normalized(),
+      Vector3d(-0.7071790128412461, 0.3141592653589793, 0.6333371924213391).normalized(),
+      Vector3d(0.2718281828459045, -0.8660254037844386, 0.4195498771298743).normalized(),
+      Vector3d(-0.3819660112501051, -0.4142135623730950, -0.8263898763381267).normalized(),
+  };
+  return directions;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Settings and construction.
+
+void BvhSettings::validate() const {
+  if (bounding_volume != BoundingVolume::obb && bounding_volume != BoundingVolume::aabb) {
+    throw std::invalid_argument("BvhSettings.bounding_volume = " +
+                                std::to_string(static_cast<int>(bounding_volume)) + " must be obb or aabb");
+  }
+  if (split != SplitRule::median && split != SplitRule::mean) {
+    throw std::invalid_argument("BvhSettings.split = " + std::to_string(static_cast<int>(split)) +
+                                " must be median or mean");
+  }
+  if (max_leaf_triangles < 1 || max_leaf_triangles > 64) {
+    throw std::invalid_argument("BvhSettings.max_leaf_triangles = " + std::to_string(max_leaf_triangles) +
+                                " must be in [1, 64]");
+  }
+  if (children_per_node != 2 && children_per_node != 4) {
+    throw std::invalid_argument("BvhSettings.children_per_node = " + std::to_string(children_per_node) +
+                                " must be 2 or 4");
+  }
+  if (!(entry_grid_cell == 0 || (entry_grid_cell >= 0.5 && entry_grid_cell <= 1000))) {
+    throw std::invalid_argument("BvhSettings.entry_grid_cell = " + std::to_string(entry_grid_cell) +
+                                " must be 0 (no grid) or in [0.5, 1000]");
+  }
+}
+
+
+BoundingVolumeHierarchy::BoundingVolumeHierarchy(const geometry::TriangleSurface& surface,
+                                                 const BvhSettings& settings)
+    : settings_(settings), vertices_(surface.vertices()), triangles_(surface.triangles()) {
+  settings_.validate();
+  build();
+}
+
+BoundingVolumeHierarchy::BoundingVolumeHierarchy(std::vector<Vector3d> vertices, std::vector<Vector3i> triangles,
+                                                 const BvhSettings& settings, const std::string& source)
+    : BoundingVolumeHierarchy((settings.validate(),
+                               geometry::TriangleSurface(std::move(vertices), std::move(triangles), source)),
+                              settings) {}
+
+template <class Node>
+std::vector<Node>& BoundingVolumeHierarchy::nodes() {
+  if constexpr (std::is_same_v<Node, ObbNode<2>>) {
+    return obb2_;
+  } else if constexpr (std::is_same_v<Node, ObbNode<4>>) {
+    return obb4_;
+  } else if constexpr (std::is_same_v<Node, AabbNode<2>>) {
+    return aabb2_;
+  } else {
+    return aabb4_;
+  }
+}
+
+void BoundingVolumeHierarchy::build() {
+  const int n = static_cast<int>(triangles_.size());
+  std::vector<Vector3d> centroids(n);
+  for (int t = 0; t < n; ++t) {
+    centroids[t] = (vertices_[triangles_[t][0]] + vertices_[triangles_[t][1]] + vertices_[triangles_[t][2]]) / 3;
+  }
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  const bool oriented = settings_.bounding_volume == BoundingVolume::obb;
+
+  // A binary tree, top-down, each node split along the longest axis of its box: the OBB's
+  // (Gottschalk) or the AABB's. Only the axes are kept; the extents come from refit_boxes(),
+  // the same code that follows a deformation.
+  struct BuildNode {
+    Matrix3d axes;
+    int begin, end;
+    int left = -1, right = -1;
+  };
+  struct Task {
+    int begin, end, depth, parent;
+    bool right;
+  };
+  std::vector<BuildNode> binary;
+  binary.reserve(2 * static_cast<std::size_t>(n));
+  std::vector<Task> tasks{{0, n, 1, -1, false}};
+  std::vector<Vector3d> corners;
+  std::vector<double> keys(n);
+  binary_depth_ = 0;
+  leaf_count_ = 0;
+  max_leaf_size_ = 0;
+  while (!tasks.empty()) {
+    const Task task = tasks.back();
+    tasks.pop_back();
+    const int index = static_cast<int>(binary.size());
+    binary.push_back({Matrix3d::Identity(), task.begin, task.end});
+    if (task.parent >= 0) (task.right ? binary[task.parent].right : binary[task.parent].left) = index;
+    binary_depth_ = std::max(binary_depth_, task.depth);
+    if (task.depth > max_binary_depth) throw std::logic_error("BoundingVolumeHierarchy: tree deeper than its stacks");
+
+    corners.clear();
+    for (int i = task.begin; i < task.end; ++i) {
+      for (int k = 0; k < 3; ++k) corners.push_back(vertices_[triangles_[order[i]][k]]);
+    }
+    const OrientedBox box = oriented ? fit_oriented_box(corners)
+                                     : enclose_with_axes(Matrix3d::Identity(), corners.data(), corners.size());
+    binary[index].axes = box.axes;
+
+    const int size = task.end - task.begin;
+    if (size <= settings_.max_leaf_triangles) {
+      ++leaf_count_;
+      max_leaf_size_ = std::max(max_leaf_size_, size);
+      continue;
+    }
+    Eigen::Index axis = 0;
+    box.half_extents.maxCoeff(&axis);
+    const Vector3d direction = box.axes.row(axis).transpose();
+    for (int i = task.begin; i < task.end; ++i) keys[order[i]] = direction.dot(centroids[order[i]]);
+    int middle = task.begin + size / 2;
+    bool median = true;
+    if (settings_.split == SplitRule::mean && task.depth <= max_mean_split_depth) {
+      double mean = 0;
+      for (int i = task.begin; i < task.end; ++i) mean += keys[order[i]];
+      mean /= size;
+      const auto split = std::partition(order.begin() + task.begin, order.begin() + task.end,
+                                        [&](int t) { return keys[t] < mean; });
+      const int candidate = static_cast<int>(split - order.begin());
+      if (candidate > task.begin && candidate < task.end) {
+        middle = candidate;
+        median = false;
+      }
+    }
+    if (median) {
+      // Ties broken by index, so the tree does not depend on the standard library's nth_element.
+      std::nth_element(order.begin() + task.begin, order.begin() + middle, order.begin() + task.end,
+                       [&](int p, int q) { return std::tie(keys[p], p) < std::tie(keys[q], q); });
+    }
+    tasks.push_back({middle, task.end, task.depth + 1, index, true});
+    tasks.push_back({task.begin, middle, task.depth + 1, index, false});
+  }
+  root_box_ = OrientedBox{};
+  root_box_.axes = binary[0].axes;
+
+  // Collapse into nodes of W lanes: a binary inner node's children (W = 2) or grandchildren
+  // (W = 4; a child that is a leaf stays a lane of its own, next to an empty lane).
+  const auto collapse = [&](auto& out) {
+    using Node = typename std::decay_t<decltype(out)>::value_type;
+    constexpr int width = Node::width;
+    out.clear();
+    lane_ranges_.clear();
+    depth_ = 1;
+    node_count_ = 1;
+    if (binary[0].left < 0) return;
+    struct Work {
+      int binary, parent, lane, level;
+    };
+    std::vector<Work> work{{0, -1, 0, 1}};
+    while (!work.empty()) {
+      const Work item = work.back();
+      work.pop_back();
+      const int index = static_cast<int>(out.size());
+      out.emplace_back();
+      lane_ranges_.emplace_back();
+      if (item.parent >= 0) out[item.parent].child[item.lane] = index;
+      Node& node = out[index];
+      const BuildNode& x = binary[item.binary];
+      std::array<int, 4> lanes{-1, -1, -1, -1};
+      if constexpr (width == 2) {
+        lanes = {x.left, x.right, -1, -1};
+      } else {
+        for (int g = 0; g < 2; ++g) {
+          const BuildNode& group = binary[g == 0 ? x.left : x.right];
+          if (group.left < 0) {
+            lanes[2 * g] = g == 0 ? x.left : x.right;
+          } else {
+            lanes[2 * g] = group.left;
+            lanes[2 * g + 1] = group.right;
+          }
+        }
+      }
+      for (int k = 0; k < width; ++k) {
+        for (int i = 0; i < 3; ++i) {
+          node.center[i][k] = 0;
+          node.half_extents[i][k] = 0;
+        }
+        if constexpr (Node::oriented) {
+          for (int a = 0; a < 9; ++a) node.axes[a][k] = 0;
+        }
+      }
+      node.lanes = 0;
+      for (int k = width - 1; k >= 0; --k) {
+        node.child[k] = 0;
+        node.count[k] = 0;
+        if (lanes[k] < 0) continue;
+        const BuildNode& child = binary[lanes[k]];
+        node.lanes |= 1 << k;
+        lane_ranges_[index].begin[k] = child.begin;
+        lane_ranges_[index].end[k] = child.end;
+        if constexpr (Node::oriented) {
+          for (int a = 0; a < 9; ++a) node.axes[a][k] = child.axes(a / 3, a % 3);
+        }
+        ++node_count_;
+        if (child.left < 0) {
+          node.child[k] = child.begin;
+          node.count[k] = static_cast<std::int16_t>(child.end - child.begin);
+          depth_ = std::max(depth_, item.level + 1);
+        } else {
+          work.push_back({lanes[k], index, k, item.level + 1});
+        }
+      }
+    }
+  };
+  obb2_.clear();
+  obb4_.clear();
+  aabb2_.clear();
+  aabb4_.clear();
+  const bool binary_width = settings_.children_per_node == 2;
+  if (oriented) {
+    binary_width ? collapse(obb2_) : collapse(obb4_);
+  } else {
+    binary_width ? collapse(aabb2_) : collapse(aabb4_);
+  }
+
+  slot_triangle_ = order;
+  // The slot across each edge, for the edge pseudo-normals (the surface is closed and
+  // consistently oriented, so edge a → b of one triangle is b → a of exactly one other).
+  struct DirectedEdge {
+    int low, high, slot, edge;
+  };
+  std::vector<DirectedEdge> edges;
+  edges.reserve(3 * static_cast<std::size_t>(n));
+  for (int slot = 0; slot < n; ++slot) {
+    const Vector3i& t = triangles_[order[slot]];
+    for (int k = 0; k < 3; ++k) {
+      edges.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]), slot, k});
+    }
+  }
+  std::sort(edges.begin(), edges.end(), [](const DirectedEdge& p, const DirectedEdge& q) {
+    return std::tie(p.low, p.high) < std::tie(q.low, q.high);
+  });
+  edge_neighbour_slot_.assign(3 * static_cast<std::size_t>(n), 0);
+  for (std::size_t i = 0; i + 1 < edges.size(); i += 2) {
+    edge_neighbour_slot_[3 * edges[i].slot + edges[i].edge] = edges[i + 1].slot;
+    edge_neighbour_slot_[3 * edges[i + 1].slot + edges[i + 1].edge] = edges[i].slot;
+  }
+
+  // Each vertex's corners, for its angle-weighted pseudo-normal (contains() near a vertex).
+  vertex_corner_offsets_.assign(vertices_.size() + 1, 0);
+  for (int slot = 0; slot < n; ++slot) {
+    for (int k = 0; k < 3; ++k) ++vertex_corner_offsets_[triangles_[order[slot]][k] + 1];
+  }
+  std::partial_sum(vertex_corner_offsets_.begin(), vertex_corner_offsets_.end(), vertex_corner_offsets_.begin());
+  vertex_corners_.resize(3 * static_cast<std::size_t>(n));
+  std::vector<int> filled(vertex_corner_offsets_.begin(), vertex_corner_offsets_.end() - 1);
+  for (int slot = 0; slot < n; ++slot) {
+    for (int k = 0; k < 3; ++k) vertex_corners_[filled[triangles_[order[slot]][k]]++] = 3 * slot + k;
+  }
+
+  corners_.resize(3 * static_cast<std::size_t>(n));
+  face_normals_.resize(n);
+  update_geometry();
+  refit_boxes();
+
+  // The grid's cell is fixed now (from the mean edge length); refit() keeps it.
+  grid_ = EntryGrid{};
+  const bool has_nodes = !(obb2_.empty() && obb4_.empty() && aabb2_.empty() && aabb4_.empty());
+  if (settings_.entry_grid_cell > 0 && has_nodes) {
+    double edges_total = 0;
+    for (int slot = 0; slot < n; ++slot) {
+      for (int k = 0; k < 3; ++k) edges_total += (corners_[3 * slot + (k + 1) % 3] - corners_[3 * slot + k]).norm();
+    }
+    grid_.cell_m = settings_.entry_grid_cell * edges_total / (3.0 * n);
+    grid_.reach_m = grid_.cell_m / 2;
+    update_entry_grid();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry that follows the vertices: corners, normals, margin, boxes.
+
+void BoundingVolumeHierarchy::update_geometry() {
+  const int n = static_cast<int>(slot_triangle_.size());
+  for (int slot = 0; slot < n; ++slot) {
+    const Vector3i& t = triangles_[slot_triangle_[slot]];
+    for (int k = 0; k < 3; ++k) corners_[3 * slot + k] = vertices_[t[k]];
+    const Vector3d normal = (corners_[3 * slot + 1] - corners_[3 * slot]).cross(corners_[3 * slot + 2] - corners_[3 * slot]);
+    const double length = normal.norm();
+    // A triangle squashed flat by a deformation has no normal; zero keeps every use finite.
+    face_normals_[slot] = length > 0 ? Vector3d(normal / length) : Vector3d::Zero();
+  }
+  Vector3d lower = Vector3d::Constant(infinity);
+  Vector3d upper = -lower;
+  for (const Vector3d& v : vertices_) {
+    lower = lower.cwiseMin(v);
+    upper = upper.cwiseMax(v);
+  }
+  margin_ = relative_margin * (upper - lower).norm();
+}
+
+Vector3d BoundingVolumeHierarchy::pseudo_normal(int slot, int feature) const noexcept {
+  // Computed when needed (only contains() next to the surface asks), so that refit() does not
+  // pay for three arctangents per triangle.
+  if (feature == face_feature) return face_normals_[slot];
+  if (feature < first_vertex_feature) {
+    const int edge = feature - first_edge_feature;
+    return face_normals_[slot] + face_normals_[edge_neighbour_slot_[3 * slot + edge]];
+  }
+  // Angle-weighted (Thürmer & Wüthrich): the pseudo-normal whose sign test is exact at a vertex.
+  const int vertex = triangles_[slot_triangle_[slot]][feature - first_vertex_feature];
+  Vector3d normal = Vector3d::Zero();
+  for (int i = vertex_corner_offsets_[vertex]; i < vertex_corner_offsets_[vertex + 1]; ++i) {
+    const int corner_slot = vertex_corners_[i] / 3;
+    const int k = vertex_corners_[i] % 3;
+    const Vector3d& corner = corners_[3 * corner_slot + k];
+    const Vector3d u = corners_[3 * corner_slot + (k + 1) % 3] - corner;
+    const Vector3d w = corners_[3 * corner_slot + (k + 2) % 3] - corner;
+    normal += std::atan2(u.cross(w).norm(), u.dot(w)) * face_normals_[corner_slot];
+  }
+  return normal;
+}
+
+template <class Node>
+void BoundingVolumeHierarchy::refit_nodes() {
+  std::vector<Node>& all = nodes<Node>();
+  const Vector3d margin = Vector3d::Constant(margin_);
+  const int n = static_cast<int>(slot_triangle_.size());
+  const auto enclose = [&](const Matrix3d& axes, int begin, int end) {
+    OrientedBox box = enclose_with_axes(axes, corners_.data() + 3 * begin, 3 * static_cast<std::size_t>(end - begin));
+    box.half_extents += margin;
+    return box;
+  };
+  const auto store = [](Node& node, int k, const Vector3d& center, const Vector3d& half_extents) {
+    for (int i = 0; i < 3; ++i) {
+      node.center[i][k] = center[i];
+      node.half_extents[i][k] = half_extents[i];
+      // An empty neighbour lane takes the centre too (the visiting order compares centres).
+      if ((node.lanes >> (k ^ 1) & 1) == 0) node.center[i][k ^ 1] = center[i];
+    }
+  };
+  if constexpr (Node::oriented) {
+    // Every box from its own triangles' corners, exact for its kept axes (enclosing each
+    // child's box instead would loosen the boxes level by level).
+    root_box_ = enclose(root_box_.axes, 0, n);
+    for (std::size_t p = 0; p < all.size(); ++p) {
+      Node& node = all[p];
+      for (int k = 0; k < Node::width; ++k) {
+        if ((node.lanes >> k & 1) == 0) continue;
+        Matrix3d axes;
+        for (int a = 0; a < 9; ++a) axes(a / 3, a % 3) = node.axes[a][k];
+        const OrientedBox box = enclose(axes, lane_ranges_[p].begin[k], lane_ranges_[p].end[k]);
+        store(node, k, box.center, box.half_extents);
+      }
+    }
+  } else {
+    // Bottom-up: a child node follows its parent, so a reverse sweep has every lane of a child
+    // node before it merges them.
+    const auto merge = [](const Node& node, Vector3d& lower, Vector3d& upper) {
+      lower = Vector3d::Constant(infinity);
+      upper = -lower;
+      for (int k = 0; k < Node::width; ++k) {
+        if ((node.lanes >> k & 1) == 0) continue;
+        for (int i = 0; i < 3; ++i) {
+          lower[i] = std::min(lower[i], node.center[i][k] - node.half_extents[i][k]);
+          upper[i] = std::max(upper[i], node.center[i][k] + node.half_extents[i][k]);
+        }
+      }
+    };
+    for (int p = static_cast<int>(all.size()) - 1; p >= 0; --p) {
+      Node& node = all[p];
+      for (int k = 0; k < Node::width; ++k) {
+        if ((node.lanes >> k & 1) == 0) continue;
+        Vector3d lower, upper;
+        if (node.count[k] > 0) {
+          lower = Vector3d::Constant(infinity);
+          upper = -lower;
+          for (int i = 3 * lane_ranges_[p].begin[k]; i < 3 * lane_ranges_[p].end[k]; ++i) {
+            lower = lower.cwiseMin(corners_[i]);
+            upper = upper.cwiseMax(corners_[i]);
+          }
+          lower -= margin;
+          upper += margin;
+        } else {
+          merge(all[node.child[k]], lower, upper);
+        }
+        // Rounding the centre can move a face by an ulp; the margin (≫ an ulp) covers it.
+        store(node, k, 0.5 * (lower + upper), 0.5 * (upper - lower));
+      }
+    }
+    if (all.empty()) {
+      root_box_ = enclose(Matrix3d::Identity(), 0, n);
+    } else {
+      Vector3d lower, upper;
+      merge(all[0], lower, upper);
+      root_box_.axes.setIdentity();
+      root_box_.center = 0.5 * (lower + upper);
+      root_box_.half_extents = 0.5 * (upper - lower);
+    }
+  }
+}
+
+void BoundingVolumeHierarchy::refit_boxes() {
+  const bool binary_width = settings_.children_per_node == 2;
+  if (settings_.bounding_volume == BoundingVolume::obb) {
+    binary_width ? refit_nodes<ObbNode<2>>() : refit_nodes<ObbNode<4>>();
+  } else {
+    binary_width ? refit_nodes<AabbNode<2>>() : refit_nodes<AabbNode<4>>();
+  }
+}
+
+void BoundingVolumeHierarchy::refit(const std::vector<Vector3d>& deformed_vertices) {
+  if (deformed_vertices.size() != vertices_.size()) {
+    throw std::invalid_argument("BoundingVolumeHierarchy::refit: " + std::to_string(deformed_vertices.size()) +
+                                " vertices given, the surface has " + std::to_string(vertices_.size()));
+  }
+  for (std::size_t v = 0; v < deformed_vertices.size(); ++v) {
+    if (!deformed_vertices[v].allFinite()) {
+      throw std::invalid_argument("BoundingVolumeHierarchy::refit: vertex " + std::to_string(v) +
+                                  " has a non-finite coordinate");
+    }
+  }
+  std::copy(deformed_vertices.begin(), deformed_vertices.end(), vertices_.begin());
+  update_geometry();
+  refit_boxes();
+  if (grid_.cell_m > 0) update_entry_grid();
+}
+
+template <class Node>
+int BoundingVolumeHierarchy::entry_node(int lowest, int highest) {
+  // Subtrees hold contiguous slot ranges, so the deepest node holding slots lowest..highest
+  // is the lowest common ancestor of their leaves: descend while one inner lane holds them all.
+  const std::vector<Node>& all = nodes<Node>();
+  int index = 0;
+  for (;;) {
+    const Node& node = all[index];
+    int next = -1;
+    for (int k = 0; k < Node::width; ++k) {
+      if ((node.lanes >> k & 1) == 0 || node.count[k] != 0) continue;
+      if (lane_ranges_[index].begin[k] <= lowest && highest < lane_ranges_[index].end[k]) next = node.child[k];
+    }
+    if (next < 0) return index;
+    index = next;
+  }
+}
+
+void BoundingVolumeHierarchy::update_entry_grid() {
+  // Cells over the vertices' bounds widened by the reach (a segment starting outside them and
+  // moving at most the reach cannot touch a triangle), as many as the cap allows.
+  Vector3d lower = Vector3d::Constant(infinity);
+  Vector3d upper = -lower;
+  for (const Vector3d& v : vertices_) {
+    lower = lower.cwiseMin(v);
+    upper = upper.cwiseMax(v);
+  }
+  const auto capacity = static_cast<std::int64_t>(grid_.entry.capacity());
+  const std::int64_t limit = capacity > 0 ? capacity : max_grid_cells;
+  std::int64_t cells = 0;
+  for (;;) {
+    grid_.reach_m = grid_.cell_m / 2;
+    grid_.origin = lower - Vector3d::Constant(grid_.reach_m + margin_);
+    const Vector3d extent = upper - lower + Vector3d::Constant(2 * (grid_.reach_m + margin_));
+    cells = 1;
+    for (int i = 0; i < 3; ++i) {
+      grid_.dims[i] = std::max(1, static_cast<int>(std::ceil(extent[i] / grid_.cell_m)));
+      cells *= grid_.dims[i];
+    }
+    if (cells <= limit) break;
+    grid_.cell_m *= 1.25;
+  }
+  grid_.entry.resize(cells);
+  grid_.lowest.assign(cells, std::numeric_limits<std::int32_t>::max());
+  grid_.highest.assign(cells, -1);
+
+  // Every cell within reach of a triangle's box learns the triangle's slot.
+  const double widen = grid_.reach_m + margin_;
+  const int n = static_cast<int>(slot_triangle_.size());
+  for (int slot = 0; slot < n; ++slot) {
+    const Vector3d& a = corners_[3 * slot];
+    const Vector3d& b = corners_[3 * slot + 1];
+    const Vector3d& c = corners_[3 * slot + 2];
+    const Vector3d low = (a.cwiseMin(b).cwiseMin(c) - Vector3d::Constant(widen) - grid_.origin) / grid_.cell_m;
+    const Vector3d high = (a.cwiseMax(b).cwiseMax(c) + Vector3d::Constant(widen) - grid_.origin) / grid_.cell_m;
+    Vector3i first, last;
+    for (int i = 0; i < 3; ++i) {
+      first[i] = std::clamp(static_cast<int>(std::floor(low[i])), 0, grid_.dims[i] - 1);
+      last[i] = std::clamp(static_cast<int>(std::floor(high[i])), 0, grid_.dims[i] - 1);
+    }
+    for (int z = first.z(); z <= last.z(); ++z) {
+      for (int y = first.y(); y <= last.y(); ++y) {
+        for (int x = first.x(); x <= last.x(); ++x) {
+          const std::int64_t cell =
+              x + static_cast<std::int64_t>(grid_.dims.x()) * (y + static_cast<std::int64_t>(grid_.dims.y()) * z);
+          grid_.lowest[cell] = std::min(grid_.lowest[cell], slot);
+          grid_.highest[cell] = std::max(grid_.highest[cell], slot);
+        }
+      }
+    }
+  }
+  const bool binary_width = settings_.children_per_node == 2;
+  const bool oriented = settings_.bounding_volume == BoundingVolume::obb;
+  grid_.occupied = 0;
+  for (std::int64_t cell = 0; cell < cells; ++cell) {
+    if (grid_.highest[cell] < 0) {
+      grid_.entry[cell] = -1;
+      continue;
+    }
+    ++grid_.occupied;
+    const int lowest = grid_.lowest[cell];
+    const int highest = grid_.highest[cell];
+    if (oriented) {
+      grid_.entry[cell] = binary_width ? entry_node<ObbNode<2>>(lowest, highest) : entry_node<ObbNode<4>>(lowest, highest);
+    } else {
+      grid_.entry[cell] =
+          binary_width ? entry_node<AabbNode<2>>(lowest, highest) : entry_node<AabbNode<4>>(lowest, highest);
+    }
+  }
+}
+
+BvhStats BoundingVolumeHierarchy::stats() const {
+  BvhStats stats;
+  stats.triangle_count = static_cast<int>(triangles_.size());
+  stats.node_count = node_count_;
+  stats.leaf_count = leaf_count_;
+  stats.depth = depth_;
+  stats.binary_depth = binary_depth_;
+  stats.max_leaf_size = max_leaf_size_;
+  stats.entry_grid_cells = grid_.occupied;
+  stats.entry_grid_cell_m = grid_.cell_m;
+  stats.memory_bytes = obb2_.size() * sizeof(ObbNode<2>) + obb4_.size() * sizeof(ObbNode<4>) +
+                       aabb2_.size() * sizeof(AabbNode<2>) + aabb4_.size() * sizeof(AabbNode<4>) +
+                       lane_ranges_.size() * sizeof(LaneRanges) + corners_.size() * sizeof(Vector3d) +
+                       face_normals_.size() * sizeof(Vector3d) +
+                       (vertex_corner_offsets_.size() + vertex_corners_.size()) * sizeof(int) +
+                       slot_triangle_.size() * sizeof(int) + edge_neighbour_slot_.size() * sizeof(int) +
+                       (grid_.entry.capacity() + grid_.lowest.capacity() + grid_.highest.capacity()) * sizeof(std::int32_t);
+  return stats;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Queries.
+
+struct BoundingVolumeHierarchy::Traversal {
+  /// Bit k set when lane k holds a child whose box the segment m ± h meets: the separating-axis
+  /// test of segment_overlaps_centred_box, lane by lane (plain loops over the lanes, which the
+  /// compiler turns into packed instructions), as the largest (|projection| − radius) over the
+  /// six axes being ≤ 0; fl(a − b) > 0 exactly when a > b, so this is the same test. NaN, only
+  /// from overflowing coordinates, counts as separated.
+  template <class Node>
+  static inline int overlap_mask(const Node& node, const Vector3d& m, const Vector3d& h) noexcept {
+    constexpr int width = Node::width;
+    double separation[width];
+    for (int k = 0; k < width; ++k) {
+      const double mx = m.x() - node.center[0][k];
+      const double my = m.y() - node.center[1][k];
+      const double mz = m.z() - node.center[2][k];
+      double lx = mx, ly = my, lz = mz, hx = h.x(), hy = h.y(), hz = h.z();
+      if constexpr (Node::oriented) {
+        const auto& r = node.axes;
+        lx = r[0][k] * mx + r[1][k] * my + r[2][k] * mz;
+        ly = r[3][k] * mx + r[4][k] * my + r[5][k] * mz;
+        lz = r[6][k] * mx + r[7][k] * my + r[8][k] * mz;
+        hx = r[0][k] * h.x() + r[1][k] * h.y() + r[2][k] * h.z();
+        hy = r[3][k] * h.x() + r[4][k] * h.y() + r[5][k] * h.z();
+        hz = r[6][k] * h.x() + r[7][k] * h.y() + r[8][k] * h.z();
+      }
+      const double ax = std::abs(hx), ay = std::abs(hy), az = std::abs(hz);
+      const double ex = node.half_extents[0][k], ey = node.half_extents[1][k], ez = node.half_extents[2][k];
+      double worst = std::abs(lx) - (ex + ax);
+      worst = std::max(worst, std::abs(ly) - (ey + ay));
+      worst = std::max(worst, std::abs(lz) - (ez + az));
+      worst = std::max(worst, std::abs(ly * hz - lz * hy) - (ey * az + ez * ay));
+      worst = std::max(worst, std::abs(lz * hx - lx * hz) - (ex * az + ez * ax));
+      worst = std::max(worst, std::abs(lx * hy - ly * hx) - (ex * ay + ey * ax));
+      separation[k] = worst;
+    }
+    int mask = 0;
+    for (int k = 0; k < width; ++k) mask |= (separation[k] <= 0 ? 1 : 0) << k;
+    return mask & node.lanes;
+  }
+
+  /// Squared distances from x to the lanes' boxes [m²].
+  template <class Node>
+  static inline void squared_distances(const Node& node, const Vector3d& x, double (&distance)[Node::width]) noexcept {
+    for (int k = 0; k < Node::width; ++k) {
+      const double mx = x.x() - node.center[0][k];
+      const double my = x.y() - node.center[1][k];
+      const double mz = x.z() - node.center[2][k];
+      double lx = mx, ly = my, lz = mz;
+      if constexpr (Node::oriented) {
+        const auto& r = node.axes;
+        lx = r[0][k] * mx + r[1][k] * my + r[2][k] * mz;
+        ly = r[3][k] * mx + r[4][k] * my + r[5][k] * mz;
+        lz = r[6][k] * mx + r[7][k] * my + r[8][k] * mz;
+      }
+      const double dx = std::max(std::abs(lx) - node.half_extents[0][k], 0.0);
+      const double dy = std::max(std::abs(ly) - node.half_extents[1][k], 0.0);
+      const double dz = std::max(std::abs(lz) - node.half_extents[2][k], 0.0);
+      distance[k] = dx * dx + dy * dy + dz * dz;
+    }
+  }
+
+  /// Starts loading the inner children's nodes while this node's boxes are tested: the next
+  /// node is one of them, and its address does not depend on the test.
+  template <class Node>
+  static void prefetch_children(const std::vector<Node>& all, const Node& node) noexcept {
+    for (int k = 0; k < Node::width; ++k) {
+      if ((node.lanes >> k & 1) == 0 || node.count[k] != 0) continue;
+      const char* address = reinterpret_cast<const char*>(&all[node.child[k]]);
+      for (std::size_t line = 0; line < sizeof(Node); line += 64) __builtin_prefetch(address + line);
+    }
+  }
+
+  /// The lanes in the order a query running along `direction` meets them: of two sibling
+  /// children (lanes 2g, 2g + 1) the one whose centre comes first, and for W = 4 first the
+  /// pair whose centres come first.
+  template <class Node>
+  static inline void visiting_order(const Node& node, const Vector3d& direction, int (&order)[Node::width]) noexcept {
+    const auto along = [&](int from, int to) {
+      return (node.center[0][to] - node.center[0][from]) * direction.x() +
+             (node.center[1][to] - node.center[1][from]) * direction.y() +
+             (node.center[2][to] - node.center[2][from]) * direction.z();
+    };
+    if constexpr (Node::width == 2) {
+      const int first = along(0, 1) >= 0 ? 0 : 1;
+      order[0] = first;
+      order[1] = 1 - first;
+    } else {
+      const double pairs = (node.center[0][2] + node.center[0][3] - node.center[0][0] - node.center[0][1]) * direction.x() +
+                           (node.center[1][2] + node.center[1][3] - node.center[1][0] - node.center[1][1]) * direction.y() +
+                           (node.center[2][2] + node.center[2][3] - node.center[2][0] - node.center[2][1]) * direction.z();
+      const int near = pairs >= 0 ? 0 : 2;
+      const int far = 2 - near;
+      const int near_first = along(near, near + 1) >= 0 ? 0 : 1;
+      const int far_first = along(far, far + 1) >= 0 ? 0 : 1;
+      order[0] = near + near_first;
+      order[1] = near + 1 - near_first;
+      order[2] = far + far_first;
+      order[3] = far + 1 - far_first;
+    }
+  }
+
+  /// Calls f with the tree's node vector (its type decides the traversal's instantiation).
+  template <class F>
+  static decltype(auto) with_nodes(const BoundingVolumeHierarchy& bvh, F&& f) noexcept {
+    const bool binary_width = bvh.settings_.children_per_node == 2;
+    if (bvh.settings_.bounding_volume == BoundingVolume::obb) {
+      return binary_width ? f(bvh.obb2_) : f(bvh.obb4_);
+    }
+    return binary_width ? f(bvh.aabb2_) : f(bvh.aabb4_);
+  }
+
+  /// The nearest hit so far: the segment the boxes are tested against ends there.
+  struct Nearest {
+    double t;
+    int slot = -1;
+    Vector3d middle, half;
+  };
+
+  template <bool count>
+  static void hit_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
+                       Nearest& nearest, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      Crossing crossing;
+      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) continue;
+      // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
+      if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
+        nearest.t = crossing.t;
+        nearest.slot = slot;
+        nearest.half = (0.5 * crossing.t) * ray.direction;
+        nearest.middle = ray.origin + nearest.half;
+      }
+    }
+  }
+
+  /// First hit of origin + t·direction for 0 ≤ t ≤ t_end: all children of an entered node are
+  /// tested at once, leaves among them at once, the nearest inner child entered next and the
+  /// others stacked (nearer on top); every hit shortens the segment later boxes are tested
+  /// against, which prunes every box beyond it.
+  template <class Node, bool count>
+  static Nearest first_hit(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
+                           double t_end, Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    Nearest nearest;
+    nearest.t = t_end;
+    nearest.half = (0.5 * t_end) * ray.direction;
+    nearest.middle = ray.origin + nearest.half;
+    int index = 0;
+    const EntryGrid& grid = bvh.grid_;
+    if (grid.cell_m > 0 && 2 * nearest.half.cwiseAbs().maxCoeff() <= grid.reach_m) {
+      // A short move: start below the root, at the entry node of the start's cell.
+      const Vector3d cell = (ray.origin - grid.origin) / grid.cell_m;
+      if (!(cell.minCoeff() >= 0 && cell.x() < grid.dims.x() && cell.y() < grid.dims.y() && cell.z() < grid.dims.z())) {
+        return nearest;
+      }
+      index = grid.entry[static_cast<std::int64_t>(cell.x()) +
+                         grid.dims.x() * (static_cast<std::int64_t>(cell.y()) +
+                                          grid.dims.y() * static_cast<std::int64_t>(cell.z()))];
+      if (index < 0) return nearest;
+    } else {
+      if constexpr (count) ++tally.boxes;
+      if (!segment_overlaps(bvh.root_box_, nearest.middle, nearest.half)) return nearest;
+      if (all.empty()) {
+        hit_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, nearest, tally);
+        return nearest;
+      }
+    }
+    std::array<int, max_stack> stack;
+    int size = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      prefetch_children(all, node);
+      const int mask = overlap_mask(node, nearest.middle, nearest.half);
+      int next = -1;
+      if (mask != 0 && (mask & (mask - 1)) == 0) {
+        // One box met (the common case on a path to the surface): no ordering needed.
+        const int k = __builtin_ctz(static_cast<unsigned>(mask));
+        if (node.count[k] > 0) {
+          hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+        } else {
+          next = node.child[k];
+        }
+      } else if (mask != 0) {
+        int order[width];
+        visiting_order(node, ray.direction, order);
+        int inner[width];
+        int inner_count = 0;
+        for (int step = 0; step < width; ++step) {
+          const int k = order[step];
+          if ((mask >> k & 1) == 0) continue;
+          if (node.count[k] > 0) {
+            hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+          } else {
+            inner[inner_count++] = node.child[k];
+          }
+        }
+        if (inner_count > 0) {
+          next = inner[0];
+          for (int i = inner_count - 1; i > 0; --i) stack[size++] = inner[i];
+        }
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      if (size == 0) break;
+      index = stack[--size];
+    }
+    return nearest;
+  }
+
+  template <bool count>
+  static SurfaceHit segment(const BoundingVolumeHierarchy& bvh, const Vector3d& origin, const Vector3d& direction,
+                            double t_end, double metres_per_t, QueryCounters* counters) noexcept {
+    Tally tally;
+    const WatertightRay ray(origin, direction);
+    const Nearest nearest = with_nodes(bvh, [&](const auto& all) {
+      return first_hit<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, tally);
+    });
+    SurfaceHit hit;
+    if (nearest.slot >= 0) {
+      hit.hit = true;
+      hit.distance_m = nearest.t * metres_per_t;
+      hit.point = origin + nearest.t * direction;
+      hit.normal = bvh.face_normals_[nearest.slot];
+      hit.triangle = bvh.slot_triangle_[nearest.slot];
+    }
+    report<count>(counters, tally);
+    return hit;
+  }
+
+  /// Closest point: slot, feature, point and squared distance.
+  struct Closest {
+    int slot = -1;
+    int feature = face_feature;
+    Vector3d point = Vector3d::Zero();
+    double squared_distance = infinity;
+  };
+
+  template <bool count>
+  static void closest_in_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const Vector3d& x,
+                              Closest& best, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      // The distance to the triangle's plane is a lower bound that costs one dot product.
+      const double height = (x - corners[3 * slot]).dot(bvh.face_normals_[slot]);
+      if (height * height > best.squared_distance) continue;
+      int feature = face_feature;
+      const Vector3d point =
+          closest_on_triangle(x, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], feature);
+      const double distance = (point - x).squaredNorm();
+      // `best.slot < 0`: accept a first candidate even when squared distances overflow to +∞.
+      if (distance < best.squared_distance || best.slot < 0) {
+        best.squared_distance = distance;
+        best.slot = slot;
+        best.feature = feature;
+        best.point = point;
+      }
+    }
+  }
+
+  /// Children nearest first; a child farther than the best distance so far is skipped, a
+  /// stacked subtree that has fallen out of reach is dropped without a test. The comparisons
+  /// are strict so that the search proceeds while `best` is still +∞.
+  template <class Node, bool count>
+  static Closest closest(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const Vector3d& x,
+                         Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    Closest best;
+    if (all.empty()) {
+      closest_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), x, best, tally);
+      return best;
+    }
+    std::array<std::pair<int, double>, max_stack> stack;
+    int size = 0;
+    int index = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      prefetch_children(all, node);
+      double distance[width];
+      squared_distances(node, x, distance);
+      // The lanes within reach, sorted by distance (insertion sort of at most 4).
+      int order[width];
+      int within = 0;
+      for (int k = 0; k < width; ++k) {
+        if ((node.lanes >> k & 1) == 0 || distance[k] > best.squared_distance) continue;
+        int i = within++;
+        for (; i > 0 && distance[order[i - 1]] > distance[k]; --i) order[i] = order[i - 1];
+        order[i] = k;
+      }
+      std::pair<int, double> inner[width];
+      int inner_count = 0;
+      for (int i = 0; i < within; ++i) {
+        const int k = order[i];
+        if (distance[k] > best.squared_distance) continue;
+        if (node.count[k] > 0) {
+          closest_in_leaf<count>(bvh, node.child[k], node.count[k], x, best, tally);
+        } else {
+          inner[inner_count++] = {node.child[k], distance[k]};
+        }
+      }
+      int next = -1;
+      if (inner_count > 0) {
+        next = inner[0].first;
+        for (int i = inner_count - 1; i > 0; --i) stack[size++] = inner[i];
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      while (size > 0 && stack[size - 1].second > best.squared_distance) --size;
+      if (size == 0) break;
+      index = stack[--size].first;
+    }
+    return best;
+  }
+
+  template <bool count>
+  static Closest closest(const BoundingVolumeHierarchy& bvh, const Vector3d& x, Tally& tally) noexcept {
+    return with_nodes(bvh, [&](const auto& all) {
+      return closest<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, x, tally);
+    });
+  }
+
+  enum class Parity { even, odd, on_edge, on_surface };
+
+  /// Crossings of origin + t·direction, surface_t < t ≤ t_end, in one leaf: flips `odd` per
+  /// crossing; stops at the first ambiguous one.
+  template <bool count>
+  static Parity parity_in_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
+                               double t_end, double surface_t, bool& odd, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      Crossing crossing;
+      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) {
+        if (crossing.in_plane) return Parity::on_edge;
+        continue;
+      }
+      if (std::abs(crossing.t) <= surface_t) return Parity::on_surface;
+      if (crossing.t < 0 || crossing.t > t_end) continue;
+      if (crossing.on_edge) return Parity::on_edge;
+      odd = !odd;
+    }
+    return Parity::even;
+  }
+
+  /// Crossings of the whole segment, mod 2 (no ordering or pruning: every crossing counts).
+  template <class Node, bool count>
+  static Parity parity(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
+                       double t_end, double surface_t, Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    bool odd = false;
+    if (all.empty()) {
+      const Parity result =
+          parity_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, t_end, surface_t, odd, tally);
+      if (result != Parity::even) return result;
+      return odd ? Parity::odd : Parity::even;
+    }
+    const Vector3d half = (0.5 * t_end) * ray.direction;
+    const Vector3d middle = ray.origin + half;
+    std::array<int, max_stack> stack;
+    int size = 0;
+    int index = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      const int mask = overlap_mask(node, middle, half);
+      int next = -1;
+      for (int k = 0; k < width; ++k) {
+        if ((mask >> k & 1) == 0) continue;
+        if (node.count[k] > 0) {
+          const Parity result = parity_in_leaf<count>(bvh, node.child[k], node.count[k], ray, t_end, surface_t, odd, tally);
+          if (result != Parity::even) return result;
+        } else if (next < 0) {
+          next = node.child[k];
+        } else {
+          stack[size++] = node.child[k];
+        }
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      if (size == 0) break;
+      index = stack[--size];
+    }
+    return odd ? Parity::odd : Parity::even;
+  }
+
+  template <bool count>
+  static bool contains(const BoundingVolumeHierarchy& bvh, const Vector3d& x, QueryCounters* counters) noexcept {
+    Tally tally;
+    const bool inside = contains_impl<count>(bvh, x, tally);
+    report<count>(counters, tally);
+    return inside;
+  }
+
+  template <bool count>
+  static bool contains_impl(const BoundingVolumeHierarchy& bvh, const Vector3d& x, Tally& tally) noexcept {
+    if (!x.allFinite()) return false;
+    const OrientedBox& root = bvh.root_box_;
+    if constexpr (count) ++tally.boxes;
+    const Vector3d local = root.to_local(x);
+    if ((local.cwiseAbs() - root.half_extents).maxCoeff() > 0) return false;
+    const double surface_t = relative_surface_tolerance * 2 * root.half_extents.norm();
+    for (const Vector3d& direction : parity_directions()) {
+      // To where the ray leaves the root box (x is inside it).
+      const Vector3d local_direction = root.axes * direction;
+      double t_end = infinity;
+      for (int i = 0; i < 3; ++i) {
+        if (local_direction[i] == 0) continue;
+        const double face = local_direction[i] > 0 ? root.half_extents[i] : -root.half_extents[i];
+        t_end = std::min(t_end, (face - local[i]) / local_direction[i]);
+      }
+      const WatertightRay ray(x, direction);
+      const Parity result = with_nodes(bvh, [&](const auto& all) {
+        return parity<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, surface_t, tally);
+      });
+      if (result == Parity::odd) return true;
+      if (result == Parity::even) return false;
+      if (result == Parity::on_surface) break;
+    }
+    // On or next to the surface (or every ray met an edge): the pseudo-normal sign at the
+    // closest point, which is exact there.
+    const Closest closest_point = closest<count>(bvh, x, tally);
+    if (closest_point.slot < 0 || !(closest_point.squared_distance > 0)) return false;
+    const int slot = closest_point.slot;
+    return (x - closest_point.point).dot(bvh.pseudo_normal(slot, closest_point.feature)) < 0;
+  }
+};
+
+SurfaceHit BoundingVolumeHierarchy::first_hit_segment(const Vector3d& from, const Vector3d& to,
+                                                      QueryCounters* counters) const noexcept {
+  const Vector3d direction = to - from;
+  const double length = direction.norm();
+  if (!from.allFinite() || !(length > 0) || !std::isfinite(length)) {
+    if (counters != nullptr) ++counters->queries;
+    return {};
+  }
+  return counters != nullptr ? Traversal::segment<true>(*this, from, direction, 1, length, counters)
+                             : Traversal::segment<false>(*this, from, direction, 1, length, counters);
+}
+
+SurfaceHit BoundingVolumeHierarchy::first_hit_ray(const Vector3d& origin, const Vector3d& direction,
+                                                  double max_distance_m, QueryCounters* counters) const noexcept {
+  const double length = direction.norm();
+  if (!origin.allFinite() || !(length > 0) || !std::isfinite(length) || !(max_distance_m >= 0)) {
+    if (counters != nullptr) ++counters->queries;
+    return {};
+  }
+  const Vector3d unit = direction / length;
+  // Nothing lies farther than this from the origin; the box tests need a finite segment.
+  const double reach = (origin - root_box_.center).norm() + 2 * root_box_.half_extents.norm();
+  const double t_end = std::min(max_distance_m, reach);
+  return counters != nullptr ? Traversal::segment<true>(*this, origin, unit, t_end, 1, counters)
+                             : Traversal::segment<false>(*this, origin, unit, t_end, 1, counters);
+}
+
+ClosestSurfacePoint BoundingVolumeHierarchy::closest_point(const Vector3d& x, QueryCounters* counters) const noexcept {
+  ClosestSurfacePoint result;
+  if (!x.allFinite()) {
+    result.distance_m = infinity;
+    if (counters != nullptr) ++counters->queries;
+    return result;
+  }
+  Tally tally;
+  const Traversal::Closest best =
+      counters != nullptr ? Traversal::closest<true>(*this, x, tally) : Traversal::closest<false>(*this, x, tally);
+  result.point = best.point;
+  result.distance_m = std::sqrt(best.squared_distance);
+  result.triangle = best.slot >= 0 ? slot_triangle_[best.slot] : -1;
+  if (counters != nullptr) report<true>(counters, tally);
+  return result;
+}
+
+bool BoundingVolumeHierarchy::contains(const Vector3d& x, QueryCounters* counters) const noexcept {
+  return counters != nullptr ? Traversal::contains<true>(*this, x, counters)
+                             : Traversal::contains<false>(*this, x, counters);
+}
+
+}  // namespace touchstone::realtime::collision

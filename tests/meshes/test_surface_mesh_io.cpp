@@ -1,0 +1,520 @@
+#include "touchstone/meshes/surface_mesh_io.hpp"
+
+#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <initializer_list>
+#include <iterator>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace touchstone::meshes {
+namespace {
+
+using Eigen::Vector3d;
+using Eigen::Vector3i;
+using realtime::geometry::TriangleMeshData;
+using realtime::geometry::TriangleSurface;
+
+constexpr double pi = 3.14159265358979323846;
+
+/// A directory of its own per test process (tests run in parallel under ctest -j).
+class TemporaryDirectory {
+ public:
+  TemporaryDirectory()
+      : path_(std::filesystem::temp_directory_path() /
+              ("touchstone_surface_io_" + std::to_string(::getpid()) + "_" + std::to_string(count_++))) {
+    std::filesystem::create_directories(path_);
+  }
+  ~TemporaryDirectory() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  std::string file(const std::string& name, const std::string& content) const {
+    const std::string path = (path_ / name).string();
+    std::ofstream(path, std::ios::binary) << content;
+    return path;
+  }
+  std::string path(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  static inline int count_ = 0;
+  std::filesystem::path path_;
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Runs `action`, expects std::invalid_argument whose message contains every fragment.
+void expect_error(const std::function<void()>& action, std::initializer_list<std::string> fragments) {
+  try {
+    action();
+    ADD_FAILURE() << "no exception; expected one mentioning '" << *fragments.begin() << "'";
+  } catch (const std::invalid_argument& error) {
+    const std::string message = error.what();
+    for (const std::string& fragment : fragments) {
+      EXPECT_NE(message.find(fragment), std::string::npos) << "'" << fragment << "' missing from: " << message;
+    }
+  } catch (const std::exception& error) {
+    ADD_FAILURE() << "wrong exception type: " << error.what();
+  }
+}
+
+/// The sphere of the round trips: 320 triangles, coordinates that are not short decimals.
+TriangleMeshData sphere() {
+  TriangleMeshData mesh = realtime::geometry::icosphere(2, 0.04);
+  for (Vector3d& x : mesh.vertices) x += Vector3d(0.1, -0.2, 0.3);
+  return mesh;
+}
+
+/// STL stores floats: the sphere rounded to them, so that the round trip is exact.
+TriangleMeshData float_sphere() {
+  TriangleMeshData mesh = sphere();
+  for (Vector3d& x : mesh.vertices) {
+    for (int i = 0; i < 3; ++i) {
+      // volatile: GCC 12 at -O2 vectorises the x, y pair of this round trip into a no-op.
+      volatile float rounded = static_cast<float>(x[i]);
+      x[i] = rounded;
+    }
+  }
+  return mesh;
+}
+
+void expect_same_surface(const TriangleMeshData& expected, const SurfaceMesh& read) {
+  ASSERT_EQ(read.vertices.size(), expected.vertices.size());
+  ASSERT_EQ(read.triangles.size(), expected.triangles.size());
+  // Corner by corner: the same points in the same order, whatever the vertex numbering.
+  for (std::size_t t = 0; t < expected.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(read.vertices[read.triangles[t][k]], expected.vertices[expected.triangles[t][k]])
+          << "triangle " << t << " corner " << k;
+    }
+  }
+  const TriangleSurface original(expected.vertices, expected.triangles);
+  const TriangleSurface loaded(read.vertices, read.triangles, read.path, read.labels);
+  EXPECT_NEAR(loaded.area_m2(), original.area_m2(), 1e-12 * original.area_m2());
+  EXPECT_NEAR(loaded.volume_m3(), original.volume_m3(), 1e-12 * original.volume_m3());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips.
+
+TEST(SurfaceMeshIo, ExactFormatsRoundTripVerticesAndTriangles) {
+  const TemporaryDirectory directory;
+  const TriangleMeshData mesh = sphere();
+  for (const char* name : {"sphere.vtp", "sphere.vtk", "sphere.obj", "sphere.msh", "SPHERE.VTP"}) {
+    SCOPED_TRACE(name);
+    const std::string path = directory.path(name);
+    write_surface_mesh(path, mesh.vertices, mesh.triangles);
+    const SurfaceMesh read = read_surface_mesh(path);
+    EXPECT_EQ(read.path, path);
+    // Nothing welded: the numbering is the file's.
+    EXPECT_EQ(read.vertices, mesh.vertices);
+    EXPECT_EQ(read.triangles, mesh.triangles);
+    EXPECT_EQ(read.vertices_welded, 0u);
+    EXPECT_EQ(read.polygons_triangulated, 0u);
+    EXPECT_EQ(read.unused_vertices, 0u);
+    expect_same_surface(mesh, read);
+    EXPECT_TRUE(validate_surface_mesh(read).empty());
+  }
+}
+
+TEST(SurfaceMeshIo, StlRoundTripsBinaryAndAsciiAfterWelding) {
+  const TemporaryDirectory directory;
+  const TriangleMeshData mesh = float_sphere();
+  for (const bool ascii : {false, true}) {
+    SCOPED_TRACE(ascii ? "ASCII" : "binary");
+    SurfaceWriteOptions options;
+    options.ascii_stl = ascii;
+    const std::string path = directory.path(ascii ? "ascii.stl" : "binary.stl");
+    write_surface_mesh(path, mesh.vertices, mesh.triangles, options);
+    EXPECT_EQ(read_file(path).rfind("solid", 0) == 0, ascii);
+    const SurfaceMesh read = read_surface_mesh(path);
+    EXPECT_EQ(read.format, SurfaceFormat::stl);
+    // Each facet stores its three corners: welding leaves one vertex per point.
+    EXPECT_EQ(read.vertices_welded, 3 * mesh.triangles.size() - mesh.vertices.size());
+    expect_same_surface(mesh, read);
+    EXPECT_EQ(read.labels.triangle_kind, "STL facet");
+    EXPECT_TRUE(read.labels.vertex_tags.empty());
+    EXPECT_EQ(read.labels.triangle_tags[7], 7);
+  }
+}
+
+TEST(SurfaceMeshIo, UnitScaleConvertsMillimetreFiles) {
+  const TemporaryDirectory directory;
+  const TriangleMeshData mesh = sphere();
+  SurfaceWriteOptions millimetres;
+  millimetres.unit_scale = 1e-3;
+  const std::string path = directory.path("sphere_mm.vtp");
+  write_surface_mesh(path, mesh.vertices, mesh.triangles, millimetres);
+
+  const SurfaceMesh raw = read_surface_mesh(path);
+  EXPECT_NEAR((raw.vertices[5] - 1e3 * mesh.vertices[5]).norm(), 0, 1e-12);
+  SurfaceReadOptions options;
+  options.unit_scale = 1e-3;
+  const TriangleSurface surface = load_surface(path, options);
+  const TriangleSurface original(mesh.vertices, mesh.triangles);
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    EXPECT_NEAR((surface.vertices()[v] - mesh.vertices[v]).norm(), 0, 1e-16);
+  }
+  EXPECT_NEAR(surface.volume_m3(), original.volume_m3(), 1e-12 * original.volume_m3());
+
+  options.unit_scale = 0;
+  expect_error([&] { read_surface_mesh(path, options); }, {"SurfaceReadOptions.unit_scale = 0"});
+  options.unit_scale = 1;
+  options.weld_relative_tolerance = -1;
+  expect_error([&] { read_surface_mesh(path, options); }, {"weld_relative_tolerance"});
+  SurfaceWriteOptions bad;
+  bad.unit_scale = std::nan("");
+  expect_error([&] { write_surface_mesh(path, mesh.vertices, mesh.triangles, bad); }, {"unit_scale"});
+}
+
+// The unit cube [0, 1]³ with quadrilateral faces, counter-clockwise seen from outside.
+const char* const cube_obj = R"(# a cube of quadrilaterals
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+f 1 4 3 2
+f 5 6 7 8
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5 8
+)";
+
+TEST(SurfaceMeshIo, PolygonsAreTriangulatedKeepingTheirNumbers) {
+  const TemporaryDirectory directory;
+  const std::string path = directory.file("cube.obj", cube_obj);
+  const SurfaceMesh read = read_surface_mesh(path);
+  EXPECT_EQ(read.triangles.size(), 12u);
+  EXPECT_EQ(read.polygons_triangulated, 6u);
+  EXPECT_EQ(read.labels.triangle_kind, "OBJ face");
+  EXPECT_EQ(read.labels.vertex_kind, "OBJ vertex");
+  EXPECT_EQ(read.labels.vertex_tags.front(), 1);
+  for (std::size_t t = 0; t < 12; ++t) EXPECT_EQ(read.labels.triangle_tags[t], static_cast<long long>(t / 2 + 1));
+  const TriangleSurface cube = load_surface(path);
+  EXPECT_NEAR(cube.volume_m3(), 1, 1e-15);
+  EXPECT_NEAR(cube.area_m2(), 6, 1e-15);
+
+  // A prism over a notched (concave) pentagon: the pentagons are polygons, the sides triangle
+  // strips, one side is left open. The file also holds a vertex cell and a line, which take
+  // the first cell ids.
+  const std::string legacy = directory.file("prism.vtk", R"(# vtk DataFile Version 4.2
+prism of polygons and strips
+ASCII
+DATASET POLYDATA
+POINTS 10 double
+0 0 0  2 0 0  2 2 0  1 0.5 0  0 2 0
+0 0 1  2 0 1  2 2 1  1 0.5 1  0 2 1
+VERTICES 1 2
+1 0
+LINES 1 3
+2 0 1
+POLYGONS 2 12
+5 0 4 3 2 1
+5 5 6 7 8 9
+TRIANGLE_STRIPS 4 20
+4 0 1 5 6
+4 1 2 6 7
+4 2 3 7 8
+4 3 4 8 9
+)");
+  const SurfaceMesh prism = read_surface_mesh(legacy);
+  EXPECT_EQ(prism.labels.triangle_kind, "VTK cell");
+  EXPECT_EQ(prism.polygons_triangulated, 2u + 4u);
+  EXPECT_EQ(prism.triangles.size(), 2u * 3u + 4u * 2u);
+  EXPECT_EQ(prism.labels.triangle_tags.front(), 2);  // after the vertex cell 0 and the line 1
+  EXPECT_EQ(prism.labels.triangle_tags.back(), 7);
+  // Only the open side is wrong: the ear cutting and the strips keep the orientation.
+  const auto defects = validate_surface_mesh(prism);
+  ASSERT_EQ(defects.size(), 1u) << defects.front().message;
+  EXPECT_EQ(defects[0].kind, realtime::geometry::SurfaceDefectKind::boundary_edge);
+  EXPECT_EQ(defects[0].count, 4u);
+  EXPECT_NE(defects[0].message.find("1 hole"), std::string::npos) << defects[0].message;
+  EXPECT_NE(defects[0].message.find("(VTK points "), std::string::npos) << defects[0].message;
+  EXPECT_NE(defects[0].message.find("(VTK cell "), std::string::npos) << defects[0].message;
+}
+
+TEST(SurfaceMeshIo, WeldingMergesSoupsOnRequest) {
+  const TemporaryDirectory directory;
+  // The cube as a soup: every face has its own four vertices.
+  std::ostringstream soup;
+  soup.precision(17);
+  const std::vector<Vector3d> corners{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                      {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  const std::vector<std::array<int, 4>> faces{{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                              {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+  for (const auto& face : faces) {
+    for (const int c : face) {
+      // Written points differ by rounding only (1e-13 m on a 1 m cube).
+      const Vector3d x = corners[c] + Vector3d::Constant(1e-13 * ((&face - faces.data()) % 2));
+      soup << "v " << x[0] << ' ' << x[1] << ' ' << x[2] << '\n';
+    }
+  }
+  for (int f = 0; f < 6; ++f) soup << "f " << 4 * f + 1 << ' ' << 4 * f + 2 << ' ' << 4 * f + 3 << ' ' << 4 * f + 4 << '\n';
+  const std::string path = directory.file("soup.obj", soup.str());
+  expect_error([&] { load_surface(path); }, {path, "duplicated vertices", "weld"});
+  SurfaceReadOptions weld;
+  weld.weld_vertices = true;
+  const SurfaceMesh welded = read_surface_mesh(path, weld);
+  EXPECT_EQ(welded.vertices.size(), 8u);
+  EXPECT_EQ(welded.vertices_welded, 16u);
+  // The welded vertices keep the OBJ number of their first occurrence.
+  EXPECT_EQ(welded.labels.vertex_tags, (std::vector<long long>{1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_NEAR(load_surface(path, weld).volume_m3(), 1, 1e-12);
+  // A tolerance below the rounding keeps them apart.
+  weld.weld_relative_tolerance = 1e-15;
+  EXPECT_EQ(read_surface_mesh(path, weld).vertices_welded, 8u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Defects: one per file, named with the file's own numbers.
+
+/// The octahedron with vertices (±1, 0, 0), (0, ±1, 0), (0, 0, ±1), faces outward.
+const char* const octahedron_vertices = "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n";
+const std::vector<std::string> octahedron_faces{"1 3 5", "3 2 5", "2 4 5", "4 1 5",
+                                                "3 1 6", "2 3 6", "4 2 6", "1 4 6"};
+
+std::string obj(const std::string& vertices, const std::vector<std::string>& faces) {
+  std::string text = vertices;
+  for (const std::string& face : faces) text += "f " + face + "\n";
+  return text;
+}
+
+TEST(SurfaceMeshIo, EachDefectIsNamedWithTheFileAndElement) {
+  const TemporaryDirectory directory;
+  const auto load = [&](const std::string& name, const std::string& content) {
+    return directory.file(name, content);
+  };
+  const std::string good = load("good.obj", obj(octahedron_vertices, octahedron_faces));
+  EXPECT_NEAR(load_surface(good).volume_m3(), 4.0 / 3, 1e-15);
+
+  // Hole: face 3 missing.
+  std::vector<std::string> faces = octahedron_faces;
+  faces.erase(faces.begin() + 2);
+  const std::string hole = load("hole.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { load_surface(hole); },
+               {hole, "not closed", "1 hole", "3 boundary edges", "(OBJ vertices ", "OBJ face "});
+
+  // Flipped: face 4 reversed.
+  faces = octahedron_faces;
+  faces[3] = "4 5 1";
+  const std::string flipped = load("flipped.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { load_surface(flipped); },
+               {flipped, "inconsistent orientation", "1 triangle flipped", "triangle 3 (OBJ face 4)", " -> "});
+
+  // Duplicate triangle: face 9 repeats face 1 in another order.
+  faces = octahedron_faces;
+  faces.push_back("5 1 3");
+  const std::string duplicate = load("duplicate.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { load_surface(duplicate); },
+               {duplicate, "1 duplicate triangle", "triangle 0 (OBJ face 1) and triangle 8 (OBJ face 9)"});
+
+  // Degenerate: face 1 split at a point of its edge 1–3; the piece (1, 3, 7) has no area.
+  faces = octahedron_faces;
+  faces[0] = "1 3 7";
+  faces.push_back("3 5 7");
+  faces.push_back("5 1 7");
+  const std::string degenerate = load("degenerate.obj", obj(std::string(octahedron_vertices) + "v 0.5 0.5 0\n", faces));
+  expect_error([&] { load_surface(degenerate); }, {degenerate, "1 degenerate triangle", "triangle 0 (OBJ face 1)", "area"});
+  faces = octahedron_faces;
+  faces[0] = "1 1 5";
+  const std::string repeated = load("repeated.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { load_surface(repeated); }, {repeated, "degenerate", "OBJ face 1", "repeats vertex 0"});
+
+  // Duplicated vertex: a second octahedron, shifted by 2 along x, touches the first at
+  // (1, 0, 0) with a vertex of its own.
+  std::string two = std::string(octahedron_vertices) + "v 3 0 0\nv 1 0 0\nv 2 1 0\nv 2 -1 0\nv 2 0 1\nv 2 0 -1\n";
+  faces = octahedron_faces;
+  for (const std::string& face : octahedron_faces) {
+    std::istringstream in(face);
+    int a = 0, b = 0, c = 0;
+    in >> a >> b >> c;
+    faces.push_back(std::to_string(a + 6) + " " + std::to_string(b + 6) + " " + std::to_string(c + 6));
+  }
+  const std::string touching = load("touching.obj", obj(two, faces));
+  expect_error([&] { load_surface(touching); },
+               {touching, "1 duplicated vertex", "vertex 0 (OBJ vertex 1) and vertex 7 (OBJ vertex 8) at (1, 0, 0)"});
+
+  // Non-manifold edge: two tetrahedra sharing the edge 1–2.
+  const std::string tetrahedra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 -1 0\nv 0 0 -1\n";
+  const std::string fin = load("fin.obj", obj(tetrahedra, {"1 3 2", "1 2 4", "1 4 3", "2 3 4",
+                                                             "1 5 2", "1 2 6", "1 6 5", "2 5 6"}));
+  expect_error([&] { load_surface(fin); },
+               {fin, "non-manifold", "1 edge shared by more than two triangles", "edge (0, 1) (OBJ vertices 1, 2)",
+                "4 triangles", "triangle 5 (OBJ face 6)"});
+
+  // Non-manifold vertex: two tetrahedra sharing vertex 1 only.
+  const std::string pinch = load("pinch.obj", obj(tetrahedra + "v -1 0 0\n", {"1 3 2", "1 2 4", "1 4 3", "2 3 4",
+                                                                                "1 7 5", "1 6 7", "1 5 6", "7 6 5"}));
+  expect_error([&] { load_surface(pinch); },
+               {pinch, "1 non-manifold vertex", "vertex 0 (OBJ vertex 1) at (0, 0, 0)", "separate fans"});
+
+  // Inward: every face reversed.
+  faces.clear();
+  for (const std::string& face : octahedron_faces) faces.push_back(std::string(face.rbegin(), face.rend()));
+  const std::string inward = load("inward.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { load_surface(inward); }, {inward, "non-positive volume (-1.33333 m^3)", "inward"});
+
+  // Index out of range: caught by the reader, in the file's numbering.
+  faces = octahedron_faces;
+  faces[5] = "2 3 9";
+  const std::string range = load("range.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { read_surface_mesh(range); },
+               {range, "OBJ face 6 (line 12) refers to vertex 9, but the file has 6 vertices (numbered from 1)"});
+
+  // Non-finite: VTK's OBJ reader would misread "nan"; the check names the line and vertex.
+  const std::string nan = load("nan.obj", obj("v 1 0 0\nv -1 nan 0\n" + std::string(octahedron_vertices).substr(17),
+                                              octahedron_faces));
+  expect_error([&] { read_surface_mesh(nan); }, {nan, "line 2: OBJ vertex 2 has a non-finite coordinate 'nan'"});
+  // In STL (read with strtod) NaN arrives and validation names it.
+  const std::string stl_nan = load("nan.stl",
+                                   "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 nan 0\n"
+                                   "endloop\nendfacet\nendsolid s\n");
+  expect_error([&] { load_surface(stl_nan); }, {stl_nan, "non-finite coordinate in 1 vertex", "vertex 2 = (0, nan, 0)"});
+
+  // A polygon with two vertices.
+  faces = octahedron_faces;
+  faces.push_back("1 2");
+  const std::string line = load("line_face.obj", obj(octahedron_vertices, faces));
+  expect_error([&] { read_surface_mesh(line); }, {line, "OBJ face 9 (line 15) has 2 vertices"});
+}
+
+TEST(SurfaceMeshIo, ValidateSurfaceMeshListsEveryDefect) {
+  const TemporaryDirectory directory;
+  // Face 3 missing (a hole) and face 5 reversed (flipped): both reported, in order.
+  std::vector<std::string> faces = octahedron_faces;
+  faces[4] = "6 1 3";
+  faces.erase(faces.begin() + 2);
+  const std::string path = directory.file("two_defects.obj", obj(octahedron_vertices, faces));
+  const SurfaceMesh mesh = read_surface_mesh(path);
+  const auto defects = validate_surface_mesh(mesh);
+  ASSERT_EQ(defects.size(), 2u);
+  EXPECT_EQ(defects[0].kind, realtime::geometry::SurfaceDefectKind::boundary_edge);
+  EXPECT_EQ(defects[1].kind, realtime::geometry::SurfaceDefectKind::inconsistent_orientation);
+  EXPECT_EQ(defects[1].message.rfind(path + ": inconsistent orientation", 0), 0u) << defects[1].message;
+  expect_error([&] { load_surface(path); }, {path, "not closed", "(further defects: inconsistent orientation)"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Broken files: std::invalid_argument naming the file, never a crash or a silent success.
+
+std::string noise(std::size_t size, unsigned seed) {
+  std::mt19937 random(seed);
+  std::string bytes;
+  for (std::size_t i = 0; i < size; ++i) bytes += static_cast<char>(random() & 0xff);
+  return bytes;
+}
+
+TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
+  const TemporaryDirectory directory;
+  const TriangleMeshData mesh = float_sphere();
+  SurfaceWriteOptions ascii;
+  ascii.ascii_stl = true;
+  for (const std::string name : {"s.obj", "s.stl", "ascii.stl", "s.vtk", "s.vtp", "s.msh"}) {
+    SCOPED_TRACE(name);
+    const std::string extension = name.substr(name.find('.'));
+    const std::string missing = directory.path("missing" + extension);
+    expect_error([&] { read_surface_mesh(missing); }, {missing});
+
+    const std::string empty = directory.file("empty" + extension, "");
+    expect_error([&] { read_surface_mesh(empty); }, {empty});
+    const std::string blank = directory.file("blank" + extension, "\n\n  \n");
+    expect_error([&] { read_surface_mesh(blank); }, {blank});
+    const std::string text = directory.file("text" + extension, "this is not a mesh\n1 2 3\n");
+    expect_error([&] { read_surface_mesh(text); }, {text});
+    for (const unsigned seed : {1u, 2u}) {
+      const std::string bytes = directory.file("noise" + extension, noise(seed == 1 ? 300 : 5000, seed));
+      expect_error([&] { read_surface_mesh(bytes); }, {bytes});
+    }
+
+    // Prefixes of a good file: an error from the reader, or (a prefix that ends between
+    // complete faces) a surface that validation rejects.
+    const std::string good = directory.path("good_" + name);
+    write_surface_mesh(good, mesh.vertices, mesh.triangles, name == "ascii.stl" ? ascii : SurfaceWriteOptions{});
+    ASSERT_NO_THROW(load_surface(good));
+    const std::string content = read_file(good);
+    for (std::size_t length = 1; length + 8 < content.size(); length += content.size() / 23 + 1) {
+      const std::string prefix = directory.file("prefix" + extension, content.substr(0, length));
+      expect_error([&] { load_surface(prefix); }, {prefix});
+    }
+  }
+  expect_error([&] { read_surface_mesh(directory.path("mesh.ply")); }, {"mesh.ply", "unsupported", ".stl"});
+  expect_error([&] { read_surface_mesh(directory.path("no_extension")); }, {"no_extension", "unsupported"});
+  std::filesystem::create_directory(directory.path("folder.obj"));
+  expect_error([&] { read_surface_mesh(directory.path("folder.obj")); }, {"folder.obj", "not a regular file"});
+
+  // A binary STL whose facet count does not match its size: VTK would read it silently.
+  const std::string binary = directory.path("count.stl");
+  write_surface_mesh(binary, mesh.vertices, mesh.triangles);
+  std::string bytes = read_file(binary);
+  const std::string cut = directory.file("cut.stl", bytes.substr(0, bytes.size() - 50));
+  expect_error([&] { read_surface_mesh(cut); }, {cut, "header announces 320 facets, the file holds 319"});
+  const std::string partial = directory.file("partial.stl", bytes.substr(0, bytes.size() - 20));
+  expect_error([&] { read_surface_mesh(partial); }, {partial, "not a whole number of 50-byte facets"});
+
+  // Corrupt headers are caught before VTK allocates or misreads: a mangled legacy version (VTK
+  // would read version 5 cells in the old layout, out of bounds) and a count no file of that
+  // size can hold (VTK would allocate it first).
+  write_surface_mesh(directory.path("header.vtk"), mesh.vertices, mesh.triangles);
+  std::string legacy = read_file(directory.path("header.vtk"));
+  legacy[legacy.find("5.1")] = 'x';
+  const std::string version = directory.file("version.vtk", legacy);
+  expect_error([&] { read_surface_mesh(version); }, {version, "# vtk DataFile Version <major>.<minor>"});
+  write_surface_mesh(directory.path("header.vtp"), mesh.vertices, mesh.triangles);
+  std::string xml = read_file(directory.path("header.vtp"));
+  xml.replace(xml.find("NumberOfPoints=\"162\""), 20, "NumberOfPoints=\"999999999162\"");
+  const std::string count = directory.file("count.vtp", xml);
+  expect_error([&] { read_surface_mesh(count); }, {count, "declares 999999999162 points"});
+
+  // A legacy file of another dataset type.
+  const std::string grid = directory.file("grid.vtk",
+                                          "# vtk DataFile Version 4.2\ngrid\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+                                          "POINTS 3 double\n0 0 0 1 0 0 0 1 0\nCELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n5\n");
+  expect_error([&] { read_surface_mesh(grid); }, {grid, "not a legacy VTK POLYDATA file"});
+  // Only points and lines.
+  const std::string lines = directory.file("lines.obj", "v 0 0 0\nv 1 0 0\nl 1 2\n");
+  expect_error([&] { read_surface_mesh(lines); }, {lines, "no polygons"});
+  // Groups are for .msh files.
+  SurfaceReadOptions groups;
+  groups.msh_groups = {"free"};
+  expect_error([&] { read_surface_mesh(directory.path("good_s.obj"), groups); }, {"msh_groups", ".msh files only"});
+}
+
+TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
+  const TemporaryDirectory directory;
+  const TriangleMeshData mesh = sphere();
+  std::vector<Vector3i> bad = mesh.triangles;
+  bad[3][1] = 999;
+  expect_error([&] { write_surface_mesh(directory.path("bad.vtp"), mesh.vertices, bad); },
+               {"bad.vtp", "triangle 3", "vertex 999"});
+  expect_error([&] { write_surface_mesh(directory.path("bad.ply"), mesh.vertices, mesh.triangles); }, {"unsupported"});
+  for (const char* name : {"x.vtp", "x.vtk", "x.stl", "x.obj", "x.msh"}) {
+    const std::string path = directory.path(std::string("no/such/dir/") + name);
+    EXPECT_THROW(write_surface_mesh(path, mesh.vertices, mesh.triangles), std::runtime_error) << name;
+  }
+}
+
+}  // namespace
+}  // namespace touchstone::meshes
