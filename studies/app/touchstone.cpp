@@ -1,10 +1,14 @@
 // touchstone — one program, one subcommand per job (DESIGN.md §2).
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/organ_geometry.hpp"
+#include "touchstone/meshes/surface_mesh_io.hpp"
+#include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/studies/reference_study.hpp"
+#include "touchstone/studies/study_runner.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -107,6 +111,174 @@ int main(int argc, char** argv) {
   mfs_cmd->add_option("config", mfs_config, "Study file (TOML), e.g. studies/mfs_b3.toml")->required()->check(CLI::ExistingFile);
   mfs_cmd->add_option("--out", mfs_options.output_directory, "Output folder (default: output/<study name>)");
   mfs_cmd->add_flag("--quiet", mfs_options.quiet, "Print only errors");
+
+  // `touchstone surface organ|check`: organ surface meshes for collision detection (issue 5).
+  // The work runs in CLI11 callbacks; a failure leaves through CLI::RuntimeError, which makes
+  // CLI11_PARSE return its exit code (1: error, 2: the checked surface has defects).
+  CLI::App* surface = app.add_subcommand("surface", "Organ surface meshes: generate one, or check a file");
+  surface->require_subcommand(1);
+  meshes::OrganParameters organ;
+  std::string organ_shape = "stomach", organ_output;
+  CLI::App* organ_cmd = surface->add_subcommand(
+      "organ", "Generate a closed organ surface at a triangle count (within 5 %) and write it (.msh: MSH 2.2; "
+               ".vtp, .vtk, .stl, .obj)");
+  organ_cmd->add_option("--triangles", organ.target_triangles, "Requested number of triangles")
+      ->required()->check(CLI::Range(100, 1000000));
+  organ_cmd->add_option("--out", organ_output, "Output file; the extension chooses the format")->required();
+  organ_cmd->add_option("--shape", organ_shape, "stomach (J-shaped, 0.2 m) or hemisphere (B2, R = 0.05 m)")
+      ->check(CLI::IsMember({"stomach", "hemisphere"}))->capture_default_str();
+  std::string check_path;
+  meshes::SurfaceReadOptions check_options;
+  CLI::App* check_cmd = surface->add_subcommand(
+      "check", "Read a surface mesh (.msh, .obj, .stl, .vtk, .vtp), print its sizes and every defect; "
+               "exit code 2 when it has defects");
+  check_cmd->add_option("file", check_path, "Surface mesh file")->required();
+  check_cmd->add_option("--unit-scale", check_options.unit_scale, "Metres per file unit (0.001 for millimetres)")
+      ->capture_default_str();
+  check_cmd->add_flag("--weld", check_options.weld_vertices, "Merge coincident vertices (STL files always are)");
+  const auto print_sizes = [](const meshes::SurfaceStatistics& s) {
+    std::printf("  area %.6g m^2, volume %.6g m^3, edges %.4g to %.4g m, box (%.4g, %.4g, %.4g) to (%.4g, %.4g, %.4g) m\n",
+                s.area_m2, s.volume_m3, s.min_edge_m, s.max_edge_m, s.lower.x(), s.lower.y(), s.lower.z(), s.upper.x(),
+                s.upper.y(), s.upper.z());
+  };
+  organ_cmd->callback([&] {
+    try {
+      organ.shape = meshes::organ_shape_from_string(organ_shape);
+      const std::filesystem::path out(organ_output);
+      if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
+      const meshes::OrganMesh mesh = meshes::write_organ_mesh(organ, organ_output);
+      std::printf("%s: %s, %zu triangles, %zu vertices (target %d, size %.4g m, %d meshing pass%s, %.2f s)\n",
+                  organ_output.c_str(), organ_shape.c_str(), mesh.triangles.size(), mesh.vertices.size(),
+                  organ.target_triangles, mesh.mesh_size_m, mesh.passes, mesh.passes == 1 ? "" : "es", mesh.seconds);
+      print_sizes(meshes::surface_statistics(mesh.vertices, mesh.triangles));
+      std::printf("  CAD geometry: area %.6g m^2, volume %.6g m^3\n", mesh.geometry_area_m2, mesh.geometry_volume_m3);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
+  });
+  check_cmd->callback([&] {
+    std::vector<realtime::geometry::SurfaceDefect> defects;
+    try {
+      const meshes::SurfaceMesh mesh = meshes::read_surface_mesh(check_path, check_options);
+      std::printf("%s: %s, %zu triangles (%zu polygons split), %zu vertices (%zu welded, %zu unused)\n",
+                  check_path.c_str(), meshes::to_string(mesh.format).c_str(), mesh.triangles.size(),
+                  mesh.polygons_triangulated, mesh.vertices.size(), mesh.vertices_welded, mesh.unused_vertices);
+      print_sizes(meshes::surface_statistics(mesh.vertices, mesh.triangles));
+      defects = meshes::validate_surface_mesh(mesh);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
+    if (defects.empty()) {
+      std::printf("  valid: closed, manifold, consistently oriented outward\n");
+      return;
+    }
+    std::printf("  %zu kind%s of defect:\n", defects.size(), defects.size() == 1 ? "" : "s");
+    for (const auto& defect : defects) {
+      std::printf("  - %s (%zu): %s\n", realtime::geometry::to_string(defect.kind), defect.count, defect.message.c_str());
+    }
+    throw CLI::RuntimeError(2);
+  });
+
+  // `touchstone collision`: Table 1 replica, tremor and per-cycle cost of collision prediction
+  // (issue 5); runs in its callback like `surface`, errors leave through CLI::RuntimeError(1).
+  std::string collision_config, collision_output;
+  bool collision_quiet = false, collision_no_plots = false;
+  CLI::App* collision_cmd = app.add_subcommand(
+      "collision", "Collision detection study: Table 1 overlap tests at first contact (OBB/AABB), tremor "
+                   "predicted-point error, per-cycle cost with and without prediction; writes results.json, "
+                   "CSV tables and report.md");
+  collision_cmd->add_option("config", collision_config, "Study file (TOML), e.g. studies/collision_table1.toml")
+      ->required()->check(CLI::ExistingFile);
+  collision_cmd->add_option("--out", collision_output, "Output folder (default: output/<study name>)");
+  collision_cmd->add_flag("--quiet", collision_quiet, "Print only errors");
+  collision_cmd->add_flag("--no-plots", collision_no_plots, "No PNG plots (reports/collision_plots.py, matplotlib)");
+  collision_cmd->callback([&] {
+    try {
+      studies::CollisionRunOptions options;
+      options.config_text = studies::read_file(collision_config);
+      options.quiet = collision_quiet;
+      options.plots = !collision_no_plots;
+      studies::ConfigTable config = studies::ConfigTable::from_file(collision_config);
+      const studies::CollisionStudy study = studies::read_collision_study(config);
+      options.output_directory = collision_output.empty() ? "output/" + study.name : collision_output;
+      studies::run_collision_study(study, options);
+      std::printf("\nresults: %s/results.json, report: %s/report.md\n", options.output_directory.c_str(),
+                  options.output_directory.c_str());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
+  });
+
+  // `touchstone study [accept] <config>`: MFS against the converged FEM reference (issue 4);
+  // runs in its callback like `collision`. Exit codes: 1 error, 3 a CI baseline check failed.
+  std::vector<std::string> study_args;
+  studies::StudyRunOptions study_options;
+  bool study_no_cache = false, study_no_report = false;
+  int study_jobs = 1;
+  CLI::App* study_cmd = app.add_subcommand(
+      "study", "Compare the MFS with the converged FEM reference: force error vs N, displacement error, run time, "
+               "Table 2 replica, DESIGN.md targets; writes results.json, CSV tables and report.md. "
+               "`touchstone study accept <config>` also rewrites the study's CI baseline and prints what changed");
+  study_cmd->add_option("config", study_args, "Study file (TOML), e.g. studies/hemisphere.toml; or: accept <config>")
+      ->required()->expected(1, 2);
+  study_cmd->add_option("--out", study_options.output_directory, "Output folder (default: output/<study name>)");
+  study_cmd->add_option("--only", study_options.only, "Run only MFS cases whose id contains this text (repeatable)");
+  study_cmd->add_option("--jobs", study_jobs, "Parallel cases (cases run one at a time: timings stay clean)")
+      ->check(CLI::Range(1, 64))->capture_default_str();
+  study_cmd->add_option("--cache", study_options.cache_directory, "Cache of FEM solves")->capture_default_str();
+  study_cmd->add_flag("--no-cache", study_no_cache, "Solve every FEM level again and cache nothing");
+  study_cmd->add_flag("--no-report", study_no_report, "Write results.json and CSV only (no matplotlib needed)");
+  study_cmd->add_option("--python", study_options.python, "Python with matplotlib for the report")->capture_default_str();
+  study_cmd->add_flag("--quiet", study_options.quiet, "Print only errors and the result");
+  study_cmd->callback([&] {
+    const bool accept = study_args.size() == 2 && study_args[0] == "accept";
+    if (study_args.size() == 2 && !accept) {
+      std::fprintf(stderr, "touchstone: error: study takes <config> or accept <config>\n");
+      throw CLI::RuntimeError(1);
+    }
+    int status = 0;
+    try {
+      fem::MpiSession mpi(argc, argv);
+      if (study_no_cache) study_options.cache_directory.clear();
+      study_options.write_report = !study_no_report;
+      if (study_jobs > 1 && !study_options.quiet) std::printf("note: --jobs %d: cases run one at a time so that run times are measured alone\n", study_jobs);
+      const studies::ComparisonStudy study = studies::read_comparison_study(study_args.back());
+      if (study_options.output_directory.empty()) study_options.output_directory = "output/" + study.name;
+      const nlohmann::json results = studies::run_comparison_study(study, study_options);
+      if (fem::MpiSession::rank() != 0) return;  // under mpirun, rank 0 reports
+      std::printf("\nresults: %s/results.json\nreport:  %s/report.md\n", study_options.output_directory.c_str(),
+                  study_options.output_directory.c_str());
+      if (accept) {
+        if (study.baseline_path.empty()) throw std::runtime_error(study_args.back() + ": [ci] baseline is not set");
+        const nlohmann::json baseline = studies::make_baseline(results, study.tolerances);
+        const bool existed = std::filesystem::exists(study.baseline_path);
+        const nlohmann::json old = existed ? nlohmann::json::parse(studies::read_file(study.baseline_path)) : nlohmann::json::object();
+        studies::write_file_atomically(study.baseline_path, baseline.dump(2) + "\n");
+        std::printf("\nbaseline %s %s:\n%s", study.baseline_path.c_str(), existed ? "rewritten" : "created",
+                    studies::describe_baseline_change(old, baseline).c_str());
+      } else if (!study.baseline_path.empty() && std::filesystem::exists(study.baseline_path)) {
+        const auto findings = studies::check_against_baseline(results, nlohmann::json::parse(studies::read_file(study.baseline_path)));
+        std::size_t failed = 0;
+        std::printf("\nCI baseline %s:\n", study.baseline_path.c_str());
+        for (const auto& f : findings) {
+          std::printf("  %s %s\n", f.passed ? "ok  " : "FAIL", f.message.c_str());
+          failed += f.passed ? 0 : 1;
+        }
+        if (failed > 0) {
+          std::printf("%zu regression%s against the baseline (accept a deliberate change with `touchstone study accept %s`)\n",
+                      failed, failed == 1 ? "" : "s", study_args.back().c_str());
+          status = 3;
+        }
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
 
   CLI11_PARSE(app, argc, argv);
   try {

@@ -593,6 +593,10 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
   f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
   f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
+  // Unset, the haptic method follows the formulation: the reaction for the weak form (its
+  // constraint force), the traction integral for least-squares collocation (whose reaction on
+  // the cut is off by hundreds of per cent), eq. 9 for the paper's model.
+  if (s.formulation == mfs::Formulation::collocation && !s.paper_mode) f.haptic_method = mfs::ForceMethod::traction_integral;
   f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
   f.reaction = force.boolean("reaction", f.reaction);
   f.energy = force.boolean("energy", f.energy);

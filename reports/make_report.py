@@ -1,0 +1,353 @@
+#!/usr/bin/python3
+"""The report of a `touchstone study` run (DESIGN.md §8, issue 4).
+
+    /usr/bin/python3 reports/make_report.py OUTPUT_DIR
+
+Reads OUTPUT_DIR/results.json (written by `touchstone study`) and writes OUTPUT_DIR/report.md with
+PNG plots in OUTPUT_DIR/plots/. Every number in the report is read from results.json: relative
+errors are printed as 100 x the stored value (2 decimals), forces in mN, times in ms or s.
+Needs matplotlib (Debian: python3-matplotlib); exits with status 2 and says so when it is missing.
+"""
+import json
+import math
+import os
+import sys
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError:  # pragma: no cover - the message is the point
+    sys.stderr.write(
+        "make_report.py: matplotlib is missing for %s; install it (apt-get install python3-matplotlib) "
+        "or run `touchstone study --no-report`\n" % sys.executable
+    )
+    sys.exit(2)
+
+
+def finite(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def pct(x, digits=2):
+    return ("%.*f %%" % (digits, 100.0 * x)) if finite(x) else "n/a"
+
+
+def mn(x):
+    return ("%.4f" % (1e3 * x)) if finite(x) else "n/a"
+
+
+def seconds(x):
+    if not finite(x):
+        return "n/a"
+    if x < 1e-3:
+        return "%.1f µs" % (1e6 * x)
+    if x < 1.0:
+        return "%.2f ms" % (1e3 * x)
+    return "%.2f s" % x
+
+
+def get(d, *path):
+    for key in path:
+        if not isinstance(d, dict) or key not in d:
+            return None
+        d = d[key]
+    return d
+
+
+def main(out):
+    with open(os.path.join(out, "results.json")) as f:
+        results = json.load(f)
+    plots = os.path.join(out, "plots")
+    os.makedirs(plots, exist_ok=True)
+    cases = results["cases"]
+    problem = results["problem"]
+    ref = results["reference_summary"]
+    ref_unc = ref.get("uncertainty_rel")
+    series = results.get("series", [])
+    mfs = [c for c in cases if c["model"] == "mfs"]
+    by_series = {s["name"]: sorted([c for c in mfs if c.get("series") == s["name"]],
+                                   key=lambda c: c["params"]["node_count_requested"]) for s in series}
+    fem_levels = [c for c in cases if c["model"] == "fem" and isinstance(get(c, "params", "refinement"), int)]
+    ref_levels = [c for c in fem_levels if c.get("part") == "reference"]
+    ref_case = next((c for c in cases if c["id"] == ref["case"]), None)
+    default_formulation = results.get("default_formulation")
+    lines = []
+    w = lines.append
+
+    # ---------------------------------------------------------------- plots
+    # Force against depth: the reference, the largest N of every series, the paper mode.
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    depths_mm = [1e3 * d for d in results["depths_m"]]
+    if ref_case:
+        ax.plot(depths_mm, [1e3 * f for f in ref_case["force_depth_N"]], "k-", lw=2.5, label="FEM reference (Richardson)")
+    analytic = [c for c in cases if c["model"] == "analytic" and c.get("part") == "reference"]
+    for c in analytic:
+        ax.plot(depths_mm, [1e3 * f for f in c["force_depth_N"]], "k:", label="half-space (Sneddon)")
+    for s in series:
+        group = [c for c in by_series[s["name"]] if c["status"] == "ok"]
+        if not group:
+            continue
+        for c in ([group[0], group[-1]] if len(group) > 1 else group):
+            ax.plot(depths_mm, [1e3 * f if finite(f) else float("nan") for f in c["force_depth_N"]], "o--", ms=3,
+                    label="MFS %s N=%d" % (s["name"], c["params"]["node_count"]))
+    ax.set_xlabel("tool-tip depth δ [mm]")
+    ax.set_ylabel("tool force along d [mN]")
+    ax.set_title("Force against depth (%s, %s)" % (problem["benchmark"], problem["contact"]))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(plots, "force_depth.png"), dpi=120)
+    plt.close(fig)
+
+    # Force error against N.
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for s in series:
+        pts = [(c["params"]["node_count"], c["error"]["force_rel"]) for c in by_series[s["name"]]
+               if finite(get(c, "error", "force_rel")) and c["status"] == "ok"]
+        if pts:
+            ax.loglog([p[0] for p in pts], [100 * p[1] for p in pts], "o-",
+                      label="MFS %s (%s%s)" % (s["name"], s["formulation"], ", engine default" if s.get("engine_default") else ""))
+    for target, n_max, style in ((1.0, 300, "g--"), (5.0, 60, "g:")):
+        ax.plot([20, n_max], [target, target], style, lw=1)
+        ax.annotate("target %g %% (N ≤ %d)" % (target, n_max), (20, target), fontsize=7, va="bottom")
+    if finite(ref_unc) and ref_unc > 0:
+        ax.axhline(100 * ref_unc, color="grey", lw=1)
+        ax.annotate("reference's own error estimate %s" % pct(ref_unc), (20, 100 * ref_unc), fontsize=7, va="bottom")
+    ax.set_xlabel("MFS nodes N")
+    ax.set_ylabel("force error vs FEM reference [%]")
+    ax.set_title("Force error against node count")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(plots, "force_error_vs_n.png"), dpi=120)
+    plt.close(fig)
+
+    # Error against run time (Pareto front over every configuration).
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    points = []
+    for s in series:
+        pts = [(c["time_s"]["total"], c["error"]["force_rel"], c["id"]) for c in by_series[s["name"]]
+               if finite(get(c, "error", "force_rel")) and finite(get(c, "time_s", "total")) and c["status"] == "ok"]
+        if pts:
+            ax.loglog([p[0] for p in pts], [100 * p[1] for p in pts], "o", label="MFS %s" % s["name"])
+            points += pts
+    fem_ok = [c for c in fem_levels if finite(get(c, "error", "force_rel")) and c["error"]["force_rel"] > 0
+              and finite(get(c, "time_s", "total"))]
+    fem_pts = [(c["time_s"]["total"], c["error"]["force_rel"], c["id"]) for c in fem_ok]
+    for part, marker in (("reference", "s"), ("table2_fem", "D"), ("table2_reference", "^")):
+        pts = [p for p, c in zip(fem_pts, fem_ok) if c.get("part") == part]
+        if pts:
+            ax.loglog([p[0] for p in pts], [100 * p[1] for p in pts], marker, mfc="none", label="FEM %s levels" % part)
+    points += fem_pts
+    front, best = [], float("inf")
+    for p in sorted(points):
+        if p[1] < best:
+            front.append(p)
+            best = p[1]
+    if front:
+        ax.loglog([p[0] for p in front], [100 * p[1] for p in front], "k-", lw=1, label="Pareto front")
+    ax.axhline(5.0, color="g", ls=":", lw=1)
+    ax.set_xlabel("run time (build + solve) [s]")
+    ax.set_ylabel("force error [%]")
+    ax.set_title("Error against run time")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(plots, "pareto.png"), dpi=120)
+    plt.close(fig)
+
+    # Displacement profile along the axis below the tool.
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    a = problem["tool_radius_m"]
+    d = problem["direction"]
+    norm = math.sqrt(sum(x * x for x in d))
+    cp = problem["contact_point_m"]
+
+    def axis_profile(probes):
+        xs, ys = [], []
+        for p in probes or []:
+            if not p["name"].startswith("axis") or not p.get("found") or p.get("displacement_m") is None:
+                continue
+            s = sum((p["position_m"][i] - cp[i]) * d[i] for i in range(3)) / norm
+            u = sum(p["displacement_m"][i] * d[i] for i in range(3)) / norm
+            xs.append(s / a)
+            ys.append(1e3 * u)
+        order = sorted(range(len(xs)), key=lambda i: xs[i])
+        return [xs[i] for i in order], [ys[i] for i in order]
+
+    if ref_case:
+        x, y = axis_profile(get(ref_case, "qoi", "probes"))
+        ax.plot(x, y, "k-s", lw=2, label="FEM reference (finest mesh)")
+    for s in series:
+        group = [c for c in by_series[s["name"]] if c["status"] == "ok"]
+        if group:
+            x, y = axis_profile(get(group[-1], "qoi", "probes"))
+            ax.plot(x, y, "o--", label="MFS %s N=%d" % (s["name"], group[-1]["params"]["node_count"]))
+    ax.set_xlabel("depth below the contact point along d [a]")
+    ax.set_ylabel("displacement along d [mm] at δ = %.3g mm" % (1e3 * results["depths_m"][-1]))
+    ax.set_title("Displacement along the axis")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(plots, "displacement_axis.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- text
+    prov = results["provenance"]
+    w("# Study `%s`: MFS against the converged FEM reference" % results["study"])
+    w("")
+    w("Generated by `reports/make_report.py` from `results.json` (every number below is read from it: relative "
+      "errors are 100 x the stored value, rounded to 2 decimals). Git %s, %s build, %s, %s, config sha256 %s…, %s." %
+      (prov.get("git"), prov.get("build_type"), prov.get("compiler"), prov.get("machine"),
+       str(prov.get("config_sha256"))[:12], prov.get("time_utc")))
+    w("")
+    w("**Problem** (both models): %s, R = %g mm, tool radius a = %g mm, L = %g mm, E = %g kPa, ν = %g, %s rigid flat "
+      "punch at the pole, direction %s, depth ramp δ = %s mm. Both models are linear: each case is solved once at "
+      "the largest δ; the force at every δ of the ramp is K_t δ d (MFS, the engine's haptic force) or F_ref δ/δ_max "
+      "(FEM). Probe points (the axis below the tool and the surface meridian, inside 0.9 L) are identical for both." %
+      (problem["benchmark"], 1e3 * problem["body_radius_m"], 1e3 * a, 1e3 * problem["local_radius_m"],
+       problem["youngs_modulus_Pa"] / 1e3, problem["poisson_ratio"], problem["contact"], problem["direction"],
+       ", ".join("%g" % x for x in depths_mm)))
+    w("")
+    w("**Reference**: `%s` = %s mN at δ = %g mm; estimated discretisation error **%s** (the larger of the "
+      "mesh-family spread %s and each family's Richardson uncertainty); %s. Displacement reference: `%s`, "
+      "estimated error %s (relative change of the probes from the second-finest to the finest mesh)." %
+      (ref["case"], mn(ref["axial_force_N"]), depths_mm[-1], pct(ref_unc, 3), pct(ref.get("family_spread_rel"), 3),
+       "asymptotic convergence" if ref.get("asymptotic") else "**not in the asymptotic range: treat with care**",
+       ref.get("probes_from"), pct(ref.get("disp_uncertainty_rel"))))
+    w("")
+    for fam in ref.get("families", []):
+        levels = ", ".join("%d dofs: %s mN" % (l["dofs"], mn(l["axial_force_N"])) for l in fam["levels"])
+        w("- %s: %s → extrapolated %s mN (observed order %s, uncertainty %s)" %
+          (fam["problem"], levels, mn(fam.get("extrapolated_force_N")),
+           ("%.2f" % fam["observed_order"]) if finite(fam.get("observed_order")) else "n/a",
+           pct(fam.get("extrapolated_relative_uncertainty"), 3)))
+    w("")
+
+    # Targets.
+    w("## DESIGN.md §11 targets")
+    w("")
+    missed = [t for t in results["targets"] if t.get("met") is False]
+    met = [t for t in results["targets"] if t.get("met") is True]
+    w("%d met, **%d missed**, %d not measured by this study." %
+      (len(met), len(missed), len(results["targets"]) - len(met) - len(missed)))
+    w("")
+    w("| target | required | measured | verdict | case |")
+    w("|---|---|---|---|---|")
+    for t in results["targets"]:
+        if t["unit"] == "relative":
+            req, val = "≤ " + pct(t["target"]), pct(t.get("measured"))
+        elif t["unit"] == "s":
+            req, val = "≤ " + seconds(t["target"]), seconds(t.get("measured"))
+        else:
+            req, val = "≥ %g x" % t["target"], ("%.3g x" % t["measured"]) if finite(t.get("measured")) else "n/a"
+        verdict = "met" if t.get("met") is True else ("**MISSED**: " + t.get("shortfall", "") if t.get("met") is False
+                                                       else t.get("shortfall", "not measured"))
+        w("| %s | %s | %s | %s | `%s` |" % (t["what"], req, val, verdict, t.get("basis", "")))
+    w("")
+    w("Speed rows are single wall-clock samples of this run on a shared machine; the benchmarks "
+      "(`touchstone bench`) carry the speed claims.")
+    w("")
+
+    # Table 2.
+    t2 = results.get("table2", {})
+    paper = t2.get("paper", {})
+    ours = t2.get("ours", {})
+    w("## Table 2 replica (paper: Kim, De & Srinivasan 2002)")
+    w("")
+    cols = [("paper FE", paper.get("fe")), ("paper MFS", paper.get("mfs"))]
+    if ours.get("fe"):
+        cols.append(("ours FE (%s)" % ours["fe"]["case"].split("/")[0], ours["fe"]))
+    if ours.get("mfs"):
+        cols.append(("ours MFS %s" % ours["mfs"]["series"], ours["mfs"]))
+    if ours.get("mfs_default") and ours.get("mfs_default") != ours.get("mfs"):
+        cols.append(("ours MFS %s (engine default)" % ours["mfs_default"]["series"], ours["mfs_default"]))
+    w("| | " + " | ".join(c[0] for c in cols) + " |")
+    w("|---|" + "---|" * len(cols))
+    w("| No. of nodes | " + " | ".join(str(c[1].get("nodes")) if c[1] else "n/a" for c in cols) + " |")
+    w("| Model time | " + " | ".join(seconds(c[1].get("model_s")) if c[1] else "n/a" for c in cols) + " |")
+    w("| Solution time | " + " | ".join(seconds(c[1].get("solution_s")) if c[1] else "n/a" for c in cols) + " |")
+    w("| Total time | " + " | ".join(seconds(c[1].get("total_s")) if c[1] else "n/a" for c in cols) + " |")
+    w("| Force error | not reported | not reported | " + " | ".join(
+        "%s (reference ±%s)" % (pct(c[1].get("force_rel")), pct(c[1].get("reference_uncertainty_rel"), 3)) if c[1] else "n/a"
+        for c in cols[2:]) + " |")
+    if ours.get("mfs") and "force_rel_full_domain" in ours["mfs"]:
+        w("| Force error vs full hemisphere B2 | | | " + " | ".join(
+            pct(c[1].get("force_rel_full_domain")) if c[1] and "force_rel_full_domain" in c[1] else "" for c in cols[2:]) + " |")
+    w("")
+    if ours.get("fe"):
+        fe = ours["fe"]
+        fe_case = next((c for c in cases if c["id"] == fe["case"]), {})
+        processes = get(fe_case, "solver", "mpi_processes")
+        w("Ours FE: %s nodes are P2 support points (%s mesh vertices, %s dofs), full hemisphere B2; model = read + "
+          "setup + assembly, solution = CG/AMG solve, on %s MPI process%s; meshing took a further %s (end to end %s). "
+          "Its force error is against `%s` = %s mN." % (
+              fe["nodes"], fe["mesh_vertices"], fe["dofs"], processes, "" if processes == 1 else "es",
+              seconds(fe["mesh_s"]), seconds(fe["end_to_end_s"]), fe["reference"], mn(fe["reference_force_N"])))
+    w("Ours MFS: model = sprinkling + shape functions + assembly; solution = factorisation + condensation to the "
+      "tool stiffness K_t + the solve for δ (one build serves every δ). MFS errors are against the FEM on the "
+      "identical local domain (%s). Paper times: %s." % (problem["benchmark"], paper.get("machine")))
+    w("")
+
+    # Force error per series and N.
+    w("## Force error against node count")
+    w("")
+    w("![force error against N](plots/force_error_vs_n.png)")
+    w("")
+    w("Reference's own estimated discretisation error: **%s** (shown next to every error)." % pct(ref_unc, 3))
+    w("")
+    w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | time | status |")
+    w("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for s in series:
+        for c in by_series[s["name"]]:
+            e = c["error"]
+            w("| `%s` | %s%s | %s | %s | %s | %s | ±%s | %s | %s | %s | %s | %s |" % (
+                c["id"], c["params"].get("formulation"), " (paper mode)" if c["params"].get("paper_mode") else "",
+                c["params"].get("node_count"), mn(get(c, "qoi", "axial_force_N")), pct(e.get("force_rel")),
+                pct(e.get("force_signed_rel")), pct(e.get("reference_uncertainty_rel"), 3), pct(e.get("disp_rel_l2")),
+                ("%.2f" % (1e6 * e["disp_max_m"])) if finite(e.get("disp_max_m")) else "n/a",
+                pct(get(c, "error_full_domain", "force_rel")), seconds(get(c, "time_s", "total")), c["status"]))
+    w("")
+    w("Engine default formulation: `%s`. Forces by extraction method (signed error against the reference):" % default_formulation)
+    w("")
+    w("| case | traction integral | reaction | paper partition | energy |")
+    w("|---|---|---|---|---|")
+    for c in mfs:
+        m = c["error"].get("by_method_signed_rel", {})
+        w("| `%s` | %s | %s | %s | %s |" % (c["id"], pct(m.get("traction_integral")), pct(m.get("reaction")),
+                                            pct(m.get("paper_partition")), pct(m.get("energy_along_tool"))))
+    w("")
+
+    w("## Error against run time")
+    w("")
+    w("![Pareto front](plots/pareto.png)")
+    w("")
+    w("| FEM level | dofs | F [mN] | force error | total time |")
+    w("|---|---|---|---|---|")
+    for c in fem_levels:
+        w("| `%s` | %s | %s | %s | %s |" % (c["id"], get(c, "mesh", "dofs"), mn(get(c, "qoi", "axial_force_N")),
+                                          pct(get(c, "error", "force_rel")), seconds(get(c, "time_s", "total"))))
+    w("")
+    w("## Force against depth")
+    w("")
+    w("![force against depth](plots/force_depth.png)")
+    w("")
+    w("## Displacement along the axis")
+    w("")
+    w("![displacement along the axis](plots/displacement_axis.png)")
+    w("")
+    w("Data: `results.json`, `cases.csv`, `force_depth.csv`, `probes.csv`, `targets.csv`; FEM VTU in `fem/*/vtu/`, "
+      "MFS node clouds in `mfs/<case>/`.")
+    with open(os.path.join(out, "report.md.partial"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    os.replace(os.path.join(out, "report.md.partial"), os.path.join(out, "report.md"))
+    print("report: %s" % os.path.join(out, "report.md"))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.stderr.write("usage: make_report.py OUTPUT_DIR\n")
+        sys.exit(1)
+    main(sys.argv[1])

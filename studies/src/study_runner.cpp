@@ -1,0 +1,1004 @@
+// `touchstone study`: one study file → the FEM reference (cached), the MFS series, the errors
+// of every MFS case against the reference next to the reference's own error estimate, Table 2,
+// the DESIGN.md §11 targets, results.json, CSV tables and the report.
+#include "touchstone/studies/study_runner.hpp"
+
+#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/provenance.hpp"
+#include "touchstone/version.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#ifndef TOUCHSTONE_SOURCE_DIR
+#define TOUCHSTONE_SOURCE_DIR "."
+#endif
+
+namespace touchstone::studies {
+namespace fs = std::filesystem;
+namespace mfs = realtime::mfs;
+using nlohmann::json;
+
+namespace {
+
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+
+json number(double value) { return std::isfinite(value) ? json(value) : json(nullptr); }
+json vector_json(const Eigen::Vector3d& v) { return json::array({number(v[0]), number(v[1]), number(v[2])}); }
+
+/// A JSON number or NaN (null, absent, not a number).
+double value_or_nan(const json& j) { return j.is_number() ? j.get<double>() : nan_value; }
+double value_or_nan(const json& j, const char* key) { return j.is_object() && j.contains(key) ? value_or_nan(j.at(key)) : nan_value; }
+
+/// F·d of a JSON 3-vector; NaN when it is not one.
+double axial(const json& vector, const Eigen::Vector3d& d) {
+  if (!vector.is_array() || vector.size() != 3) return nan_value;
+  double sum = 0;
+  for (int i = 0; i < 3; ++i) sum += value_or_nan(vector.at(i)) * d[i];
+  return sum;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string format_number(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+std::string resolve(const std::string& directory, const std::string& path) {
+  fs::path p(path);
+  if (p.is_relative() && !directory.empty()) p = fs::path(directory) / p;
+  return p.lexically_normal().string();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading: the problem is imposed on every sub-study, so that both models solve the same one.
+
+/// Reads a `touchstone fem` file and imposes the problem. `same_domain`: the file must be on
+/// the problem's benchmark (the reference); otherwise its own domain is kept (Table 2's B2).
+ReferenceStudy read_fem_file(const std::string& path, const std::string& key, const ComparisonProblem& problem,
+                             bool same_domain) {
+  ConfigTable table = ConfigTable::from_file(path);
+  ReferenceStudy study = read_reference_study(table);
+  if (same_domain && study.geometry.benchmark != problem.benchmark)
+    throw ConfigError(key + ": '" + path + "' is a " + meshes::to_string(study.geometry.benchmark) +
+                      " study, but problem.benchmark is " + meshes::to_string(problem.benchmark));
+  meshes::MeshParameters& g = study.geometry;
+  g.body_radius_m = problem.body_radius_m;
+  g.tool_radius_m = problem.tool_radius_m;
+  if (g.benchmark == meshes::Benchmark::B3) g.local_radius_m = problem.local_radius_m;
+  study.material = problem.material;
+  study.punch.depth_m = problem.max_depth_m();
+  study.punch.direction = problem.direction;
+  study.punch.contact = problem.contact;
+  study.contacts.clear();
+  study.poisson_ratios.clear();
+  study.body_radii_m.clear();
+  try {
+    study.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(key + ": '" + path + "' with the study's problem: " + e.what());
+  }
+  return study;
+}
+
+/// One [mfs.<name>] table → a `touchstone mfs` study with the problem's geometry, material and
+/// tool (written into the TOML, so every default the MFS reader derives from them follows).
+MfsSeries read_series(const std::string& path, const std::string& name, const toml::table& section,
+                      const ComparisonProblem& problem) {
+  toml::table t = section;
+  for (const char* key : {"study", "geometry", "material", "tool"})
+    if (t.contains(key))
+      throw ConfigError(path + ": mfs." + name + "." + key + ": set by [problem] (both models solve the same problem)");
+  t.insert_or_assign("study", name);
+  toml::table geometry{{"benchmark", meshes::to_string(problem.benchmark)},
+                       {"body_radius", problem.body_radius_m},
+                       {"tool_radius", problem.tool_radius_m}};
+  if (problem.benchmark == meshes::Benchmark::B3) geometry.insert("local_radius", problem.local_radius_m);
+  t.insert_or_assign("geometry", geometry);
+  t.insert_or_assign("material", toml::table{{"youngs_modulus", problem.material.youngs_modulus_Pa},
+                                             {"poisson_ratio", problem.material.poisson_ratio}});
+  const Eigen::Vector3d& d = problem.direction;
+  t.insert_or_assign("tool", toml::table{{"depth", problem.max_depth_m()},
+                                         {"direction", toml::array{d[0], d[1], d[2]}},
+                                         {"contact", fem::to_string(problem.contact)}});
+  std::ostringstream text;
+  text << t << "\n";
+  MfsSeries series;
+  series.name = name;
+  series.config_text = text.str();
+  ConfigTable table = ConfigTable::from_string(series.config_text, path + " [mfs." + name + "]");
+  series.study = read_mfs_study(table, fs::path(path).parent_path().string());
+  return series;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reference of a `touchstone fem` run: the extrapolated force and its error estimate.
+
+struct ReferenceValue {
+  std::string id;              ///< prefixed case id in the study's results
+  double force_N = nan_value;  ///< axial, at max δ
+  double uncertainty_rel = nan_value;
+  double disp_uncertainty_rel = nan_value;  ///< probe change, second-finest → finest mesh
+  json probes = json::array();
+  json summary;
+};
+
+ReferenceValue pick_reference(const json& document, const std::string& prefix, const Eigen::Vector3d& d) {
+  ReferenceValue r;
+  // The mean over mesh families ("-reference") when there are several, else the one family's
+  // Richardson value.
+  const json* chosen = nullptr;
+  const json* richardson = nullptr;
+  for (const auto& c : document.at("cases")) {
+    const std::string id = c.at("id");
+    const auto ends_with = [&](const std::string& tail) {
+      return id.size() >= tail.size() && id.compare(id.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    if (ends_with("-reference")) chosen = &c;
+    if (ends_with("-richardson")) richardson = &c;
+  }
+  if (chosen == nullptr) chosen = richardson;
+  if (chosen == nullptr) throw std::runtime_error("FEM study " + document.value("study", "") + " has no reference case");
+  r.id = prefix + chosen->at("id").get<std::string>();
+  r.force_N = axial(chosen->at("qoi").at("force_N"), d);
+  r.probes = chosen->at("qoi").value("probes", json::array());
+  // Discretisation error of the extrapolated force: the larger of the family spread and each
+  // family's Richardson uncertainty (the change of f_R between observed and theoretical order).
+  double uncertainty = 0;
+  json families = json::array();
+  bool asymptotic = true;
+  for (const auto& s : document.value("convergence", json::array())) {
+    // A family without an extrapolation (fewer than three levels) has no error estimate.
+    const double family = value_or_nan(s, "extrapolated_relative_uncertainty");
+    uncertainty = std::isfinite(family) ? std::max(uncertainty, family) : nan_value;
+    asymptotic = asymptotic && s.value("asymptotic", false);
+    families.push_back({{"problem", s.at("problem")},
+                        {"extrapolated_force_N", s.value("extrapolated_force_N", json(nullptr))},
+                        {"observed_order", s.value("observed_order", json(nullptr))},
+                        {"extrapolated_relative_uncertainty", s.value("extrapolated_relative_uncertainty", json(nullptr))},
+                        {"finest_relative_error", s.value("finest_relative_error", json(nullptr))},
+                        {"levels", s.at("levels")}});
+  }
+  double spread = nan_value;
+  if (document.contains("references") && !document.at("references").empty()) {
+    spread = value_or_nan(document.at("references").at(0), "relative_uncertainty");
+    uncertainty = std::max(uncertainty, spread);
+  }
+  r.uncertainty_rel = families.empty() ? nan_value : uncertainty;
+  // Probe reference: the finest level of the last family; its error estimate is how much the
+  // probes moved from the second-finest level (its disp_rel_l2 against the finest).
+  std::string last_family;
+  std::vector<const json*> levels;
+  for (const auto& c : document.at("cases")) {
+    if (c.at("model") != "fem" || !c.at("params").at("refinement").is_number()) continue;
+    const std::string id = c.at("id");
+    const std::string family = id.substr(0, id.rfind("-L"));
+    if (family != last_family) levels.clear();
+    last_family = family;
+    levels.push_back(&c);
+  }
+  if (levels.size() >= 2) r.disp_uncertainty_rel = value_or_nan(levels[levels.size() - 2]->at("error"), "disp_rel_l2");
+  r.summary = {{"case", r.id},
+               {"study", document.value("study", "")},
+               {"axial_force_N", number(r.force_N)},
+               {"uncertainty_rel", number(r.uncertainty_rel)},
+               {"family_spread_rel", number(spread)},
+               {"asymptotic", asymptotic && !families.empty()},
+               {"families", families},
+               {"disp_uncertainty_rel", number(r.disp_uncertainty_rel)},
+               {"probes_from", levels.empty() ? json(nullptr) : json(prefix + levels.back()->at("id").get<std::string>())}};
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+std::string csv_escape(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (const char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string csv_value(const json& j) {
+  if (j.is_null()) return "";
+  if (j.is_string()) return csv_escape(j.get<std::string>());
+  if (j.is_number_float()) {
+    char text[40];
+    std::snprintf(text, sizeof text, "%.10g", j.get<double>());
+    return text;
+  }
+  return csv_escape(j.dump());
+}
+
+const json& at_path(const json& j, const std::vector<std::string>& path) {
+  static const json null_json;
+  const json* node = &j;
+  for (const auto& key : path) {
+    if (!node->is_object() || !node->contains(key)) return null_json;
+    node = &node->at(key);
+  }
+  return *node;
+}
+
+class StudyRun {
+ public:
+  StudyRun(const ComparisonStudy& study, const StudyRunOptions& options) : study_(study), options_(options) {
+    out_ = options.output_directory.empty() ? "output/" + study.name : options.output_directory;
+    d_ = study.problem.direction.normalized();
+  }
+
+  json run() {
+    start_ = std::chrono::steady_clock::now();
+    const bool rank0 = fem::MpiSession::rank() == 0;
+    if (rank0) fs::create_directories(out_);
+    config_text_ = study_.config_path.empty() ? std::string() : read_file(study_.config_path);
+    if (rank0 && !config_text_.empty()) write_file_atomically(out_ + "/study.toml", config_text_);
+
+    std::vector<std::pair<const MfsSeries*, int>> mfs_cases;
+    for (const auto& s : study_.series)
+      for (const int n : s.study.node_counts)
+        if (selected("MFS-" + s.name + "-N" + std::to_string(n))) mfs_cases.push_back({&s, n});
+    total_ = 1 + (study_.table2_fem ? 1 : 0) + (study_.table2_reference ? 1 : 0) + mfs_cases.size();
+
+    json document{{"study", study_.name},
+                  {"provenance", provenance(config_text_)},
+                  {"problem", problem_json()},
+                  {"cases", json::array()}};
+    json& cases = document["cases"];
+
+    // The references first: every error needs them. Each FEM solve comes from the cache when the
+    // same inputs were solved by the same code version.
+    const json reference_doc = run_fem("reference", study_.reference);
+    reference_ = pick_reference(reference_doc, "reference/", d_);
+    add_fem_cases(reference_doc, "reference/", reference_, cases);
+    document["reference_summary"] = reference_.summary;
+
+    std::optional<ReferenceValue> full_reference;
+    if (study_.table2_reference) {
+      const json doc = run_fem("table2_reference", *study_.table2_reference);
+      full_reference = pick_reference(doc, "table2_reference/", d_);
+      add_fem_cases(doc, "table2_reference/", *full_reference, cases);
+      document["table2_reference_summary"] = full_reference->summary;
+    }
+    const ReferenceValue& fe_row_reference = full_reference ? *full_reference : reference_;
+    if (study_.table2_fem) {
+      const json doc = run_fem("table2_fem", *study_.table2_fem);
+      add_fem_cases(doc, "table2_fem/", fe_row_reference, cases);
+    }
+
+    // Under mpirun every rank takes part in the FEM solves; the MFS cases, the files and the
+    // report are rank 0's.
+    if (fem::MpiSession::rank() != 0) return document;
+    for (const auto& [series, n] : mfs_cases) {
+      json c = run_mfs_case(*series, n);
+      add_mfs_errors(c, full_reference ? &*full_reference : nullptr);
+      progress(c.at("id").get<std::string>() + (c.value("resumed", false) ? " (resumed)" : ""),
+               "F = " + format_number(1e3 * value_or_nan(c.at("qoi"), "axial_force_N")) + " mN, error " +
+                   format_number(100 * value_or_nan(c.at("error"), "force_rel")) + " % (reference's own error " +
+                   (std::isfinite(reference_.uncertainty_rel) ? format_number(100 * reference_.uncertainty_rel) + " %"
+                                                              : std::string("not estimated")) +
+                   ")  " + c.at("status").get<std::string>());
+      cases.push_back(std::move(c));
+    }
+
+    document["table2"] = table2(cases, fe_row_reference);
+    document["targets"] = targets(cases, document["table2"], full_reference.has_value());
+    document["depths_m"] = study_.problem.depths_m;
+    document["default_formulation"] = mfs::to_string(mfs::LocalModelSettings{}.formulation);
+    document["series"] = series_json();
+    document["elapsed_s"] = seconds_since(start_);
+
+    write_file_atomically(out_ + "/results.json", document.dump(2) + "\n");
+    write_csv(document);
+    if (!options_.quiet) print_summary(document);
+    if (options_.write_report) make_report();
+    return document;
+  }
+
+ private:
+  bool selected(const std::string& id) const {
+    if (options_.only.empty()) return true;
+    return std::any_of(options_.only.begin(), options_.only.end(),
+                       [&](const std::string& part) { return id.find(part) != std::string::npos; });
+  }
+
+  void progress(const std::string& what, const std::string& detail) {
+    ++done_;
+    if (options_.quiet || fem::MpiSession::rank() != 0) return;
+    const double elapsed = seconds_since(start_);
+    std::printf("[%zu/%zu] %-34s %s  (elapsed %.0f s, ~%.0f s left)\n", done_, total_, what.c_str(), detail.c_str(),
+                elapsed, elapsed / static_cast<double>(done_) * static_cast<double>(total_ - done_));
+    std::fflush(stdout);
+  }
+
+  json problem_json() const {
+    const ComparisonProblem& p = study_.problem;
+    return {{"benchmark", meshes::to_string(p.benchmark)},
+            {"body_radius_m", p.body_radius_m},
+            {"tool_radius_m", p.tool_radius_m},
+            {"local_radius_m", p.local_radius_m},
+            {"youngs_modulus_Pa", p.material.youngs_modulus_Pa},
+            {"poisson_ratio", p.material.poisson_ratio},
+            {"contact", fem::to_string(p.contact)},
+            {"direction", vector_json(d_)},
+            {"contact_point_m", vector_json(contact_point(study_.reference.geometry))},
+            {"depths_m", p.depths_m}};
+  }
+
+  json series_json() const {
+    json list = json::array();
+    for (const auto& s : study_.series)
+      list.push_back({{"name", s.name},
+                      {"formulation", mfs::to_string(s.study.model.formulation)},
+                      {"paper_mode", s.study.model.paper_mode},
+                      {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
+                      {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
+                      {"node_counts", s.study.node_counts},
+                      {"engine_default", is_default_series(s)}});
+    return list;
+  }
+
+  static bool is_default_series(const MfsSeries& s) {
+    return !s.study.model.paper_mode && s.study.model.formulation == mfs::LocalModelSettings{}.formulation;
+  }
+
+  json run_fem(const std::string& part, const ReferenceStudy& fem_study) {
+    RunOptions o;
+    o.output_directory = out_ + "/fem/" + part;
+    o.cache_directory = options_.cache_directory;
+    o.config_text = config_text_;
+    o.quiet = options_.quiet;
+    if (!options_.quiet && fem::MpiSession::rank() == 0) {
+      std::printf("FEM %s: %s, %zu mesh famil%s x %zu levels\n", part.c_str(), fem_study.name.c_str(),
+                  std::max<std::size_t>(1, fem_study.edge_sizes_m.size()), fem_study.edge_sizes_m.size() > 1 ? "ies" : "y",
+                  fem_study.refinements.size());
+      std::fflush(stdout);
+    }
+    const json doc = run_reference_study(fem_study, o);
+    progress("FEM " + part, "done");
+    return doc;
+  }
+
+  /// FEM cases under a prefix; level errors are taken against `reference` (the study's
+  /// reference for this domain), the ramp is F δ_i / δ_max.
+  void add_fem_cases(const json& doc, const std::string& prefix, const ReferenceValue& reference, json& cases) const {
+    for (json c : doc.at("cases")) {
+      c["id"] = prefix + c.at("id").get<std::string>();
+      c["part"] = prefix.substr(0, prefix.size() - 1);
+      if (c.contains("reference") && c.at("reference").is_string())
+        c["reference"] = prefix + c.at("reference").get<std::string>();
+      const double f = axial(c.at("qoi").at("force_N"), d_);
+      const bool level = c.at("model") == "fem" && c.at("params").contains("refinement") &&
+                         c.at("params").at("refinement").is_number();
+      if (level) {
+        c["reference"] = reference.id;
+        c["error"]["force_rel"] = number(std::abs(f - reference.force_N) / std::abs(reference.force_N));
+        c["error"]["force_signed_rel"] = number((f - reference.force_N) / std::abs(reference.force_N));
+        c["error"]["reference_uncertainty_rel"] = number(reference.uncertainty_rel);
+        c["time_s"]["model"] = value_or_nan(c["time_s"], "read_mesh") + value_or_nan(c["time_s"], "setup") +
+                               value_or_nan(c["time_s"], "assembly");
+        c["time_s"]["solution"] = c["time_s"]["solve"];
+      }
+      json ramp = json::array();
+      for (const double depth : study_.problem.depths_m) ramp.push_back(number(f * depth / study_.problem.max_depth_m()));
+      c["depths_m"] = study_.problem.depths_m;
+      c["force_depth_N"] = ramp;
+      cases.push_back(std::move(c));
+    }
+  }
+
+  /// The organ surface of a series, generated once per distinct organ (as `touchstone mfs`
+  /// does: B3 cuts the local ball from the whole hemisphere).
+  std::string organ_path(const MfsStudy& s) {
+    if (!s.surface_path.empty()) return s.surface_path;
+    meshes::MeshParameters g = s.geometry;
+    if (g.benchmark == meshes::Benchmark::B3) g.benchmark = meshes::Benchmark::B2;
+    g.refinement = 0;
+    const std::string key = sha256_hex(meshes::to_string(g.benchmark) + format_number(g.body_radius_m) + "|" +
+                                       format_number(g.tool_radius_m) + "|" + format_number(g.edge_size_m) + "|" +
+                                       format_number(g.size_growth) + "|" + format_number(g.max_size_m) + "|" +
+                                       format_number(g.size_exponent) + "|" + format_number(g.contact_polar_angle_rad))
+                                .substr(0, 16);
+    const std::string path = fs::absolute(fs::path(out_) / "organ" / (key + ".msh")).lexically_normal().string();
+    if (!fs::exists(path)) {
+      fs::create_directories(fs::path(path).parent_path());
+      const std::string temporary = path + ".partial.msh";
+      meshes::generate_mesh(g, temporary);
+      fs::rename(temporary, path);
+    }
+    return path;
+  }
+
+  /// One MFS case: reused from <out>/mfs/<id>/case.json when its hash matches, else run by
+  /// the MFS study (one node count).
+  json run_mfs_case(const MfsSeries& series, int n) {
+    const std::string id = "MFS-" + series.name + "-N" + std::to_string(n);
+    MfsStudy s = series.study;
+    s.name = id;
+    s.node_counts = {n};
+    s.model.sprinkling.node_count = n;
+    const std::string hash = sha256_hex(resolved_config_toml(s) + touchstone::version::git_hash +
+                                        touchstone::version::build_type);
+    s.surface_path = organ_path(series.study);
+    const std::string directory = out_ + "/mfs/" + id;
+    const std::string record_path = directory + "/case.json";
+    if (fs::exists(record_path)) {
+      try {
+        json record = json::parse(read_file(record_path));
+        if (record.value("case_sha256", "") == hash) {
+          json c = record.at("case");
+          c["resumed"] = true;
+          return c;
+        }
+      } catch (const std::exception&) {
+        // An unreadable record is recomputed.
+      }
+    }
+    MfsRunOptions o;
+    o.output_directory = directory;
+    o.config_text = series.config_text;
+    o.quiet = true;
+    const json doc = run_mfs_study(s, o);
+    json c = doc.at("cases").at(0);
+    c["id"] = id;
+    c["series"] = series.name;
+    c["part"] = "mfs";
+    if (c.value("vtu", json(nullptr)).is_string()) c["vtu"] = "mfs/" + id + "/" + c.at("vtu").get<std::string>();
+    const json& t = c["time_s"];
+    // Table 2's split: model = sprinkle + shape functions + assembly (the paper's "time to
+    // generate the stiffness matrix"); solution = factorisation + condensation to K_t + solve.
+    c["time_s"]["model"] = value_or_nan(t, "sprinkle") + value_or_nan(t, "assembly");
+    c["time_s"]["solution"] = value_or_nan(t, "factorize") + value_or_nan(t, "condense") + value_or_nan(t, "solve");
+    write_file_atomically(record_path, json{{"case_sha256", hash}, {"case", c}}.dump(2) + "\n");
+    c["resumed"] = false;
+    return c;
+  }
+
+  void add_mfs_errors(json& c, const ReferenceValue* full) const {
+    json& qoi = c["qoi"];
+    const double f = axial(qoi.value("force_N", json(nullptr)), d_);
+    qoi["axial_force_N"] = number(f);
+    const double fr = reference_.force_N;
+    json error{{"force_rel", number(std::abs(f - fr) / std::abs(fr))},
+               {"force_signed_rel", number((f - fr) / std::abs(fr))},
+               {"reference_uncertainty_rel", number(reference_.uncertainty_rel)},
+               {"disp_rel_l2", nullptr},
+               {"disp_max_m", nullptr},
+               {"disp_probes", 0},
+               {"reference_disp_uncertainty_rel", number(reference_.disp_uncertainty_rel)}};
+    json by_method = json::object();
+    const json& methods = at_path(qoi, {"forces_by_method_N"});
+    if (methods.is_object())
+      for (const auto& [name, value] : methods.items()) {
+        const double fm = value.is_number() ? value.get<double>() : axial(value, d_);
+        by_method[name] = number((fm - fr) / std::abs(fr));
+      }
+    error["by_method_signed_rel"] = by_method;
+    if (qoi.contains("probes") && qoi.at("probes").is_array() && !qoi.at("probes").empty()) {
+      const ProbeComparison p = compare_probes(qoi.at("probes"), reference_.probes);
+      if (p.count > 0) {
+        error["disp_rel_l2"] = number(p.rel_l2);
+        error["disp_max_m"] = number(p.max_abs_m);
+        error["disp_probes"] = p.count;
+      }
+    }
+    c["error"] = error;
+    c["reference"] = reference_.id;
+    if (full != nullptr && study_.problem.benchmark != study_.table2_reference->geometry.benchmark) {
+      c["error_full_domain"] = {{"force_rel", number(std::abs(f - full->force_N) / std::abs(full->force_N))},
+                                {"force_signed_rel", number((f - full->force_N) / std::abs(full->force_N))},
+                                {"reference", full->id},
+                                {"reference_uncertainty_rel", number(full->uncertainty_rel)}};
+    }
+    Eigen::Matrix3d kt = Eigen::Matrix3d::Constant(nan_value);
+    const json& m = at_path(qoi, {"tool_stiffness_matrix_N_per_m"});
+    if (m.is_array() && m.size() == 3)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) kt(i, j) = value_or_nan(m.at(i).at(j));
+    json ramp = json::array();
+    for (const double v : mfs_force_ramp_N(kt, d_, study_.problem.depths_m)) ramp.push_back(number(v));
+    c["depths_m"] = study_.problem.depths_m;
+    c["force_depth_N"] = ramp;
+  }
+
+  const json* find_case(const json& cases, const std::string& id) const {
+    for (const auto& c : cases)
+      if (c.at("id") == id) return &c;
+    return nullptr;
+  }
+
+  /// Table 2: the paper's numbers next to ours (same node counts), with the force error each
+  /// achieves and the reference's own error estimate.
+  json table2(const json& cases, const ReferenceValue& fe_reference) const {
+    json t{{"paper",
+            {{"fe", {{"nodes", 4045}, {"model_s", 6.44}, {"solution_s", 11.88}, {"total_s", 18.32}}},
+             {"mfs", {{"nodes", 34}, {"model_s", 0.0021}, {"solution_s", 0.0015}, {"total_s", 0.0036}}},
+             {"machine", "600-900 MHz Pentium (2002)"}}},
+           {"ours", json::object()}};
+    json& ours = t["ours"];
+    for (const auto& c : cases) {
+      if (c.value("part", "") != "table2_fem" || c.at("model") != "fem" || !c.at("params").contains("refinement") ||
+          !c.at("params").at("refinement").is_number())
+        continue;
+      const json& ts = c.at("time_s");
+      ours["fe"] = {{"case", c.at("id")},
+                    {"nodes", c.at("mesh").at("fe_nodes")},
+                    {"mesh_vertices", c.at("mesh").at("vertices")},
+                    {"dofs", c.at("mesh").at("dofs")},
+                    {"mesh_s", ts.at("mesh")},
+                    {"model_s", ts.at("model")},
+                    {"solution_s", ts.at("solve")},
+                    {"total_s", number(value_or_nan(ts, "model") + value_or_nan(ts, "solve"))},
+                    {"end_to_end_s", ts.at("total")},
+                    {"axial_force_N", c.at("qoi").at("axial_force_N")},
+                    {"force_rel", c.at("error").at("force_rel")},
+                    {"reference", fe_reference.id},
+                    {"reference_force_N", number(fe_reference.force_N)},
+                    {"reference_uncertainty_rel", number(fe_reference.uncertainty_rel)}};
+    }
+    const auto mfs_row = [&](const std::string& series_name) -> json {
+      for (const auto& s : study_.series) {
+        if (s.name != series_name) continue;
+        const json* c = find_case(cases, "MFS-" + s.name + "-N" + std::to_string(s.study.node_counts.front()));
+        if (c == nullptr) return nullptr;
+        const json& ts = c->at("time_s");
+        json row{{"case", c->at("id")},
+                 {"series", s.name},
+                 {"formulation", mfs::to_string(s.study.model.formulation)},
+                 {"paper_mode", s.study.model.paper_mode},
+                 {"nodes", c->at("params").at("node_count")},
+                 {"nodes_requested", c->at("params").at("node_count_requested")},
+                 {"model_s", ts.at("model")},
+                 {"solution_s", ts.at("solution")},
+                 {"total_s", number(value_or_nan(ts, "model") + value_or_nan(ts, "solution"))},
+                 {"axial_force_N", c->at("qoi").at("axial_force_N")},
+                 {"force_rel", c->at("error").at("force_rel")},
+                 {"reference", reference_.id},
+                 {"reference_uncertainty_rel", number(reference_.uncertainty_rel)},
+                 {"disp_rel_l2", c->at("error").at("disp_rel_l2")},
+                 {"status", c->at("status")}};
+        if (c->contains("error_full_domain")) row["force_rel_full_domain"] = c->at("error_full_domain").at("force_rel");
+        return row;
+      }
+      return nullptr;
+    };
+    if (!study_.table2_mfs_series.empty()) ours["mfs"] = mfs_row(study_.table2_mfs_series);
+    for (const auto& s : study_.series)
+      if (is_default_series(s)) {
+        ours["mfs_default"] = mfs_row(s.name);
+        break;
+      }
+    return t;
+  }
+
+  /// DESIGN.md §11: each target with the measured value, met or not, and by how much.
+  json targets(const json& cases, const json& table2, bool have_full_reference) const {
+    json list = json::array();
+    const auto add = [&](const std::string& id, const std::string& what, double target, double measured,
+                         const std::string& unit, const std::string& basis) {
+      json t{{"id", id}, {"what", what}, {"target", target}, {"unit", unit}, {"measured", number(measured)}, {"basis", basis}};
+      if (!std::isfinite(measured)) {
+        t["met"] = nullptr;
+        t["shortfall"] = "not measured";
+      } else {
+        t["met"] = measured <= target;
+        t["ratio_to_target"] = measured / target;
+        if (measured <= target)
+          t["shortfall"] = "";
+        else if (unit == "relative")
+          t["shortfall"] = "missed by " + format_number(std::round(1e4 * (measured - target)) / 100) + " percentage points";
+        else
+          t["shortfall"] = "missed: " + format_number(std::round(10 * measured / target) / 10) + "x the target";
+      }
+      list.push_back(t);
+    };
+    add("fem_reference_uncertainty", "FEM reference force: estimated discretisation error (Richardson, " +
+                                         reference_.summary.at("study").get<std::string>() + ")",
+        0.003, reference_.uncertainty_rel, "relative", reference_.id);
+
+    for (const auto& s : study_.series) {
+      if (s.study.model.paper_mode) continue;
+      std::vector<const json*> series_cases;
+      for (const auto& c : cases)
+        if (c.value("series", "") == s.name && c.at("status") == "ok") series_cases.push_back(&c);
+      const auto best = [&](const char* field, int max_n, std::string& basis) {
+        double value = nan_value;
+        for (const json* c : series_cases) {
+          const int n = c->at("params").at("node_count_requested").get<int>();
+          const double e = value_or_nan(c->at("error"), field);
+          if (n <= max_n && std::isfinite(e) && !(e >= value)) {
+            value = e;
+            basis = c->at("id");
+          }
+        }
+        return value;
+      };
+      const std::string label = "MFS " + s.name + " (" + mfs::to_string(s.study.model.formulation) +
+                                (is_default_series(s) ? ", engine default" : "") + ")";
+      std::string basis;
+      double v = best("force_rel", 60, basis);
+      add("mfs_force_n60:" + s.name, label + " vs FEM on the identical domain, tool force, best N <= 60", 0.05, v, "relative", basis);
+      basis.clear();
+      v = best("force_rel", 300, basis);
+      add("mfs_force_n300:" + s.name, label + " vs FEM on the identical domain, tool force, best N <= 300", 0.01, v, "relative", basis);
+      basis.clear();
+      v = best("disp_rel_l2", std::numeric_limits<int>::max(), basis);
+      add("mfs_displacement:" + s.name, label + " vs FEM, displacement at probes (relative L2), best N", 0.02, v, "relative", basis);
+      if (have_full_reference) {
+        double full = nan_value;
+        std::string full_basis;
+        for (const json* c : series_cases) {
+          const double e = value_or_nan(at_path(*c, {"error_full_domain"}), "force_rel");
+          if (std::isfinite(e) && !(e >= full)) {
+            full = e;
+            full_basis = c->at("id");
+          }
+        }
+        add("mfs_vs_full_domain:" + s.name, label + " local model vs the full hemisphere B2, tool force, best N", 0.03,
+            full, "relative", full_basis);
+      }
+    }
+
+    // Run time against error: the cheapest MFS and the cheapest reference FEM level reaching 5 %.
+    double mfs_time = nan_value, fem_time = nan_value;
+    std::string mfs_case, fem_case;
+    for (const auto& c : cases) {
+      const double e = value_or_nan(c.at("error"), "force_rel");
+      const double t = value_or_nan(c.at("time_s"), "total");
+      if (!(e <= 0.05) || !std::isfinite(t)) continue;
+      if (c.at("model") == "mfs" && c.at("status") == "ok" && !(t >= mfs_time)) {
+        mfs_time = t;
+        mfs_case = c.at("id");
+      }
+      if (c.value("part", "") == "reference" && c.at("params").contains("refinement") &&
+          c.at("params").at("refinement").is_number() && !(t >= fem_time)) {
+        fem_time = t;
+        fem_case = c.at("id");
+      }
+    }
+    {
+      json t{{"id", "speedup_at_5_percent"},
+             {"what", "at 5 % force error, MFS at least 10^4 x faster than the FEM that reaches 5 %"},
+             {"target", 1e4},
+             {"unit", "speedup (higher is better)"},
+             {"basis", mfs_case + " vs " + fem_case}};
+      if (std::isfinite(mfs_time) && std::isfinite(fem_time)) {
+        const double speedup = fem_time / mfs_time;
+        t["measured"] = speedup;
+        t["met"] = speedup >= 1e4;
+        t["shortfall"] = speedup >= 1e4 ? "" : "missed: " + format_number(std::round(speedup)) + "x";
+      } else {
+        t["measured"] = nullptr;
+        t["met"] = std::isfinite(fem_time) ? json(false) : json(nullptr);
+        t["shortfall"] = std::isfinite(mfs_time) ? "no FEM level reached 5 %" : "missed: no MFS case reached 5 % force error";
+      }
+      list.push_back(t);
+    }
+
+    // Speed, from single wall-clock samples of this run (the benchmarks are authoritative).
+    const json& mfs_row = at_path(table2, {"ours", "mfs"});
+    if (mfs_row.is_object())
+      add("mfs34_time", "MFS local model, 34 nodes (" + mfs_row.at("series").get<std::string>() +
+                            "): sprinkle + shape functions + assembly + solve (one sample; benchmarks are authoritative)",
+          20e-6, value_or_nan(mfs_row, "total_s"), "s", mfs_row.at("case"));
+    for (const auto& s : study_.series) {
+      if (!is_default_series(s) || s.study.model.collocation.mls.basis != mfs::Basis::quadratic) continue;
+      const json* c = find_case(cases, "MFS-" + s.name + "-N200");
+      if (c != nullptr)
+        add("mfs200_time", "MFS local model, 200 nodes, quadratic basis (one sample)", 1e-3,
+            value_or_nan(c->at("time_s"), "total"), "s", c->at("id"));
+      break;
+    }
+    const json& fe_row = at_path(table2, {"ours", "fe"});
+    if (fe_row.is_object())
+      add("fem_paper_size_time", "FEM reference at the paper's size (~4045 nodes), end to end (mesh + assembly + solve)",
+          0.2, value_or_nan(fe_row, "end_to_end_s"), "s", fe_row.at("case"));
+    return list;
+  }
+
+  void write_csv(const json& document) const {
+    const std::vector<std::pair<std::string, std::vector<std::string>>> columns{
+        {"id", {"id"}},
+        {"model", {"model"}},
+        {"part", {"part"}},
+        {"series", {"series"}},
+        {"formulation", {"params", "formulation"}},
+        {"nodes_requested", {"params", "node_count_requested"}},
+        {"nodes", {"params", "node_count"}},
+        {"dofs", {"mesh", "dofs"}},
+        {"axial_force_N", {"qoi", "axial_force_N"}},
+        {"force_rel", {"error", "force_rel"}},
+        {"force_signed_rel", {"error", "force_signed_rel"}},
+        {"reference_uncertainty_rel", {"error", "reference_uncertainty_rel"}},
+        {"disp_rel_l2", {"error", "disp_rel_l2"}},
+        {"disp_max_m", {"error", "disp_max_m"}},
+        {"force_rel_full_domain", {"error_full_domain", "force_rel"}},
+        {"model_s", {"time_s", "model"}},
+        {"solution_s", {"time_s", "solution"}},
+        {"total_s", {"time_s", "total"}},
+        {"reference", {"reference"}},
+        {"status", {"status"}}};
+    std::ostringstream text;
+    for (std::size_t i = 0; i < columns.size(); ++i) text << (i ? "," : "") << columns[i].first;
+    text << "\n";
+    for (const auto& c : document.at("cases")) {
+      for (std::size_t i = 0; i < columns.size(); ++i) text << (i ? "," : "") << csv_value(at_path(c, columns[i].second));
+      text << "\n";
+    }
+    write_file_atomically(out_ + "/cases.csv", text.str());
+
+    std::ostringstream ramp;
+    ramp << "id,model,depth_m,axial_force_N\n";
+    for (const auto& c : document.at("cases")) {
+      const json& depths = at_path(c, {"depths_m"});
+      const json& forces = at_path(c, {"force_depth_N"});
+      for (std::size_t i = 0; depths.is_array() && i < depths.size() && i < forces.size(); ++i)
+        ramp << csv_value(c.at("id")) << "," << csv_value(c.at("model")) << "," << csv_value(depths[i]) << ","
+             << csv_value(forces[i]) << "\n";
+    }
+    write_file_atomically(out_ + "/force_depth.csv", ramp.str());
+
+    std::ostringstream probes;
+    probes << "id,probe,x_m,y_m,z_m,ux_m,uy_m,uz_m\n";
+    for (const auto& c : document.at("cases")) {
+      const json& list = at_path(c, {"qoi", "probes"});
+      if (!list.is_array() || (c.at("model") != "mfs" && c.at("id") != reference_.id)) continue;
+      for (const auto& p : list) {
+        const json& x = p.at("position_m");
+        const json& u = p.value("displacement_m", json(nullptr));
+        probes << csv_value(c.at("id")) << "," << csv_value(p.at("name"));
+        for (int i = 0; i < 3; ++i) probes << "," << csv_value(x.at(i));
+        for (int i = 0; i < 3; ++i) probes << "," << (u.is_array() ? csv_value(u.at(i)) : std::string());
+        probes << "\n";
+      }
+    }
+    write_file_atomically(out_ + "/probes.csv", probes.str());
+
+    std::ostringstream targets;
+    targets << "id,what,target,unit,measured,met,shortfall,basis\n";
+    for (const auto& t : document.at("targets"))
+      targets << csv_value(t.at("id")) << "," << csv_value(t.at("what")) << "," << csv_value(t.at("target")) << ","
+              << csv_value(t.at("unit")) << "," << csv_value(t.at("measured")) << "," << csv_value(t.at("met")) << ","
+              << csv_value(t.at("shortfall")) << "," << csv_value(t.at("basis")) << "\n";
+    write_file_atomically(out_ + "/targets.csv", targets.str());
+  }
+
+  void print_summary(const json& document) const {
+    std::printf("\nreference %s: F = %.6f mN, estimated discretisation error %s\n", reference_.id.c_str(),
+                1e3 * reference_.force_N,
+                std::isfinite(reference_.uncertainty_rel) ? (format_number(100 * reference_.uncertainty_rel) + " %").c_str()
+                                                          : "not estimated (fewer than three levels)");
+    std::printf("%-28s %6s %12s %10s %10s %11s\n", "case", "N", "F [mN]", "F err [%]", "u err [%]", "time [ms]");
+    for (const auto& c : document.at("cases")) {
+      if (c.at("model") != "mfs") continue;
+      std::printf("%-28s %6s %12.5f %10.2f %10.2f %11.2f  %s\n", c.at("id").get<std::string>().c_str(),
+                  c.at("params").at("node_count").dump().c_str(), 1e3 * value_or_nan(c.at("qoi"), "axial_force_N"),
+                  100 * value_or_nan(c.at("error"), "force_rel"), 100 * value_or_nan(c.at("error"), "disp_rel_l2"),
+                  1e3 * value_or_nan(c.at("time_s"), "total"), c.at("status").get<std::string>().c_str());
+    }
+    std::printf("\nDESIGN.md §11 targets:\n");
+    for (const auto& t : document.at("targets")) {
+      const std::string met = t.at("met").is_null() ? "n/a " : (t.at("met").get<bool>() ? "MET " : "MISS");
+      std::printf("  %s %s: %s %s\n", met.c_str(), t.at("what").get<std::string>().c_str(),
+                  t.at("measured").is_null() ? "-" : format_number(t.at("measured").get<double>()).c_str(),
+                  t.at("shortfall").get<std::string>().c_str());
+    }
+    std::fflush(stdout);
+  }
+
+  void make_report() const {
+    std::string script = options_.report_script;
+    if (script.empty()) {
+      const char* env = std::getenv("TOUCHSTONE_REPORT_SCRIPT");
+      script = env != nullptr ? env : std::string(TOUCHSTONE_SOURCE_DIR) + "/reports/make_report.py";
+    }
+    if (!fs::exists(script)) throw std::runtime_error("report generator not found: " + script);
+    const auto quote = [](const std::string& s) {
+      std::string q = "'";
+      for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      return q + "'";
+    };
+    const std::string command = quote(options_.python) + " " + quote(script) + " " + quote(out_);
+    std::fflush(stdout);
+    const int status = std::system(command.c_str());
+    if (status != 0)
+      throw std::runtime_error("the report generator failed (" + command + ", status " + std::to_string(status) +
+                               "); results.json and the CSV tables are written");
+  }
+
+  const ComparisonStudy& study_;
+  const StudyRunOptions& options_;
+  std::string out_, config_text_;
+  Eigen::Vector3d d_;
+  ReferenceValue reference_;
+  std::chrono::steady_clock::time_point start_;
+  std::size_t done_ = 0, total_ = 0;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+void ComparisonProblem::validate() const {
+  const auto positive = [](const std::string& field, double value) {
+    if (!std::isfinite(value) || value <= 0)
+      throw std::invalid_argument(field + " = " + format_number(value) + " must be finite and > 0");
+  };
+  positive("problem.body_radius", body_radius_m);
+  positive("problem.tool_radius", tool_radius_m);
+  positive("problem.local_radius", local_radius_m);
+  material.validate();
+  if (benchmark != meshes::Benchmark::B2 && benchmark != meshes::Benchmark::B3)
+    throw std::invalid_argument("problem.benchmark must be B2 or B3");
+  if (!(tool_radius_m < 0.5 * local_radius_m))
+    throw std::invalid_argument("problem.tool_radius must be < problem.local_radius / 2");
+  if (!direction.allFinite() || direction.norm() < 1e-12) throw std::invalid_argument("problem.direction must be non-zero");
+  if (depths_m.empty()) throw std::invalid_argument("problem.depths is empty");
+  for (std::size_t i = 0; i < depths_m.size(); ++i) {
+    positive("problem.depths[" + std::to_string(i) + "]", depths_m[i]);
+    if (i > 0 && !(depths_m[i] > depths_m[i - 1])) throw std::invalid_argument("problem.depths must be ascending");
+  }
+  if (depths_m.back() > 0.5 * tool_radius_m)
+    throw std::invalid_argument("problem.depths: the largest depth must be <= a/2 (a linear, small-strain model)");
+}
+
+void ComparisonStudy::validate() const {
+  if (name.empty()) throw std::invalid_argument("study name is empty");
+  problem.validate();
+  reference.validate();
+  // Three levels give the Richardson value and its error estimate; two (a quick CI reference)
+  // give the finest mesh, reported without an error estimate.
+  if (reference.refinements.size() < 2)
+    throw std::invalid_argument("reference: needs >= 2 refinement levels (>= 3 for Richardson extrapolation)");
+  if (series.empty()) throw std::invalid_argument("no [mfs.<name>] series");
+  bool found = table2_mfs_series.empty();
+  for (const auto& s : series) {
+    s.study.validate();
+    found = found || s.name == table2_mfs_series;
+  }
+  if (!found) throw std::invalid_argument("table2.mfs_series = '" + table2_mfs_series + "' names no [mfs.<name>] series");
+  tolerances.validate();
+}
+
+ComparisonStudy read_comparison_study(const std::string& path) {
+  // Syntax errors with the file and line, as every other study file.
+  { ConfigTable syntax_check = ConfigTable::from_file(path); }
+  toml::table document = toml::parse_file(path);
+  const std::string directory = fs::path(path).parent_path().string();
+  toml::table mfs_sections;
+  if (const toml::node* node = document.get("mfs")) {
+    if (!node->is_table()) throw ConfigError(path + ": mfs: must be a table of series, [mfs.<name>]");
+    mfs_sections = *node->as_table();
+    document.erase("mfs");
+  }
+  std::ostringstream rest;
+  rest << document << "\n";
+  ConfigTable config = ConfigTable::from_string(rest.str(), path);
+
+  ComparisonStudy study;
+  study.config_path = path;
+  study.name = config.string("study", fs::path(path).stem().string());
+
+  ConfigTable problem = config.table("problem", true);
+  ComparisonProblem& p = study.problem;
+  p.benchmark = meshes::benchmark_from_string(problem.choice("benchmark", {"B2", "B3"}, "B3"));
+  p.body_radius_m = problem.quantity("body_radius", Dimension::length, p.body_radius_m);
+  p.tool_radius_m = problem.quantity("tool_radius", Dimension::length, p.tool_radius_m);
+  p.local_radius_m = problem.quantity("local_radius", Dimension::length, 5 * p.tool_radius_m);
+  p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
+  p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
+  p.contact = fem::contact_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
+  const auto direction = problem.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
+  p.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
+  p.depths_m = problem.quantity_list("depths", Dimension::length, p.depths_m);
+  try {
+    p.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+
+  ConfigTable reference = config.table("reference", true);
+  const std::string reference_path = resolve(directory, reference.string("config"));
+  const bool has_edges = reference.has("edge_sizes"), has_levels = reference.has("refinements");
+  const std::vector<double> edges = reference.quantity_list("edge_sizes", Dimension::length, {});
+  const std::vector<std::int64_t> levels = reference.integer_list("refinements", {});
+
+  ConfigTable table2 = config.table("table2");
+  const std::string fem_path = table2.string("fem", "");
+  const std::string full_path = table2.string("reference", "");
+  const bool has_full_edges = table2.has("reference_edge_sizes");
+  const std::vector<double> full_edges = table2.quantity_list("reference_edge_sizes", Dimension::length, {});
+  study.table2_mfs_series = table2.string("mfs_series", "");
+
+  ConfigTable ci = config.table("ci");
+  const std::string baseline = ci.string("baseline", "");
+  if (!baseline.empty()) study.baseline_path = resolve(directory, baseline);
+  RegressionTolerances& tol = study.tolerances;
+  tol.force_error_points = ci.number("force_error_points", tol.force_error_points);
+  tol.displacement_error_points = ci.number("displacement_error_points", tol.displacement_error_points);
+  tol.reference_force_rel = ci.number("reference_force_rel", tol.reference_force_rel);
+  config.finish();
+
+  // Mesh overrides keep the reference file's grading; edge sizes are the mesh families.
+  const auto with_edges = [](ReferenceStudy& s, const std::vector<double>& e) {
+    s.geometry.edge_size_m = e.front();
+    s.edge_sizes_m = e.size() > 1 ? e : std::vector<double>{};
+  };
+  study.reference = read_fem_file(reference_path, path + ": reference.config", p, true);
+  if (has_edges && !edges.empty()) with_edges(study.reference, edges);
+  if (has_levels) study.reference.refinements.assign(levels.begin(), levels.end());
+  if (!fem_path.empty()) study.table2_fem = read_fem_file(resolve(directory, fem_path), path + ": table2.fem", p, false);
+  if (!full_path.empty()) {
+    study.table2_reference = read_fem_file(resolve(directory, full_path), path + ": table2.reference", p, false);
+    if (has_full_edges && !full_edges.empty()) with_edges(*study.table2_reference, full_edges);
+  }
+
+  for (const auto& [key, node] : mfs_sections) {
+    const std::string name(key.str());
+    if (!node.is_table()) throw ConfigError(path + ": mfs." + name + ": must be a table ([mfs." + name + "])");
+    study.series.push_back(read_series(path, name, *node.as_table(), p));
+  }
+  try {
+    study.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+  return study;
+}
+
+nlohmann::json run_comparison_study(const ComparisonStudy& study, const StudyRunOptions& options) {
+  study.validate();
+  return StudyRun(study, options).run();
+}
+
+std::vector<double> mfs_force_ramp_N(const Eigen::Matrix3d& tool_stiffness_N_per_m, const Eigen::Vector3d& direction,
+                                     const std::vector<double>& depths_m) {
+  const Eigen::Vector3d d = direction.normalized();
+  std::vector<double> forces;
+  forces.reserve(depths_m.size());
+  for (const double depth : depths_m) forces.push_back((tool_stiffness_N_per_m * (depth * d)).dot(d));
+  return forces;
+}
+
+ProbeComparison compare_probes(const json& probes, const json& reference_probes) {
+  ProbeComparison result;
+  double diff2 = 0, ref2 = 0;
+  const auto vector = [](const json& j, Eigen::Vector3d& v) {
+    if (!j.is_array() || j.size() != 3) return false;
+    for (int i = 0; i < 3; ++i) {
+      if (!j.at(i).is_number()) return false;
+      v[i] = j.at(i).get<double>();
+    }
+    return true;
+  };
+  for (const auto& p : probes) {
+    if (!p.value("found", false)) continue;
+    for (const auto& r : reference_probes) {
+      if (r.at("name") != p.at("name") || !r.value("found", false)) continue;
+      Eigen::Vector3d u, ur;
+      if (!vector(p.value("displacement_m", json(nullptr)), u) || !vector(r.value("displacement_m", json(nullptr)), ur)) break;
+      diff2 += (u - ur).squaredNorm();
+      ref2 += ur.squaredNorm();
+      result.max_abs_m = std::max(result.max_abs_m, (u - ur).norm());
+      ++result.count;
+      break;
+    }
+  }
+  result.rel_l2 = ref2 > 0 ? std::sqrt(diff2 / ref2) : (result.count > 0 ? nan_value : 0.0);
+  return result;
+}
+
+}  // namespace touchstone::studies
