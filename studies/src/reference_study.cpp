@@ -161,13 +161,14 @@ class Runner {
   }
 
   /// One mesh level of one problem: from the cache when the same inputs were solved by the
-  /// same code version, else meshed and solved (VTU kept in the cache entry).
+  /// same FEM sources (version::fem_source_hash), else meshed and solved (VTU kept in the
+  /// cache entry).
   json solve_level(const Problem& problem, int refinement) {
     Problem p = problem;
     p.geometry.refinement = refinement;
     const std::string id = problem.id + "-L" + std::to_string(refinement);
     json params = problem_params(p, study_.solver);
-    const std::string key = sha256_hex(params.dump() + touchstone::version::git_hash + "deal.II-9.4");
+    const std::string key = sha256_hex(params.dump() + touchstone::version::fem_source_hash + "deal.II-9.4");
     const std::string entry = options_.cache_directory.empty()
                                   ? options_.output_directory + "/work/" + id
                                   : options_.cache_directory + "/fem/" + key.substr(0, 24);
