@@ -51,10 +51,21 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// A number for the console; "-" for a missing one (a failed case has no force: never print
+/// "nan", which reads like a numerical failure of a case that reported its status instead).
 std::string format_number(double value) {
+  if (!std::isfinite(value)) return "-";
   std::ostringstream text;
   text << value;
   return text.str();
+}
+
+/// A fixed-width table cell: `value` with `decimals`, or "-" right-aligned when it is missing.
+std::string table_cell(double value, int width, int decimals) {
+  char text[64];
+  if (std::isfinite(value)) std::snprintf(text, sizeof text, "%*.*f", width, decimals, value);
+  else std::snprintf(text, sizeof text, "%*s", width, "-");
+  return text;
 }
 
 std::string resolve(const std::string& directory, const std::string& path) {
@@ -784,10 +795,12 @@ class StudyRun {
     std::printf("%-28s %6s %12s %10s %10s %11s\n", "case", "N", "F [mN]", "F err [%]", "u err [%]", "time [ms]");
     for (const auto& c : document.at("cases")) {
       if (c.at("model") != "mfs") continue;
-      std::printf("%-28s %6s %12.5f %10.2f %10.2f %11.2f  %s\n", c.at("id").get<std::string>().c_str(),
-                  c.at("params").at("node_count").dump().c_str(), 1e3 * value_or_nan(c.at("qoi"), "axial_force_N"),
-                  100 * value_or_nan(c.at("error"), "force_rel"), 100 * value_or_nan(c.at("error"), "disp_rel_l2"),
-                  1e3 * value_or_nan(c.at("time_s"), "total"), c.at("status").get<std::string>().c_str());
+      std::printf("%-28s %6s %s %s %s %s  %s\n", c.at("id").get<std::string>().c_str(),
+                  c.at("params").at("node_count").dump().c_str(),
+                  table_cell(1e3 * value_or_nan(c.at("qoi"), "axial_force_N"), 12, 5).c_str(),
+                  table_cell(100 * value_or_nan(c.at("error"), "force_rel"), 10, 2).c_str(),
+                  table_cell(100 * value_or_nan(c.at("error"), "disp_rel_l2"), 10, 2).c_str(),
+                  table_cell(1e3 * value_or_nan(c.at("time_s"), "total"), 11, 2).c_str(), c.at("status").get<std::string>().c_str());
     }
     std::printf("\nDESIGN.md §11 targets:\n");
     for (const auto& t : document.at("targets")) {

@@ -145,6 +145,10 @@ void LocalModelSettings::validate() const {
   galerkin.validate();
   if (paper_mode && formulation == Formulation::galerkin)
     throw std::invalid_argument("paper_mode with formulation = galerkin: the paper's model is point collocation");
+  if (formulation == Formulation::galerkin && sprinkling.outer == OuterCondition::traction_free)
+    throw std::invalid_argument(
+        "SprinklingSettings.outer = traction_free with formulation = galerkin: the weak form clamps the cut (u = 0); "
+        "use formulation = collocation for a traction-free cut");
   if (formulation == Formulation::galerkin && !force.reaction)
     throw std::invalid_argument("ForceSettings.reaction = false with formulation = galerkin: the tool force is the reaction");
   if (paper_mode && sprinkling.oversampling > 1)

@@ -381,6 +381,12 @@ TEST(LocalModelDegenerate, InvalidSettingsAreNamed) {
   s = small_settings();
   s.force.haptic_method = ForceMethod::energy;
   expect_named(s, "haptic_method");
+  // The weak form always clamps the cut: a traction-free cut is refused, not ignored.
+  s = small_settings();
+  s.formulation = Formulation::galerkin;
+  s.force.haptic_method = ForceMethod::reaction;
+  s.sprinkling.outer = OuterCondition::traction_free;
+  expect_named(s, "outer");
   // The defaults and the paper's setup are valid.
   EXPECT_NO_THROW(LocalModelSettings{}.validate());
   EXPECT_NO_THROW(paper_settings().validate());
