@@ -14,12 +14,12 @@
 //   ./build/release/benchmarks/collision_benchmark --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 //
 // TOUCHSTONE_ORGAN_MESH_DIR: every *.msh file there (a gmsh surface) is benchmarked too.
+#include "support/embree_scene.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <benchmark/benchmark.h>
-#include <embree3/rtcore.h>
 
 #include <algorithm>
 #include <cmath>
@@ -37,6 +37,8 @@
 #include <vector>
 
 namespace {
+
+using touchstone::testing::EmbreeScene;
 
 using Eigen::Vector3d;
 using Eigen::Vector3i;
@@ -94,59 +96,6 @@ TriangleSurface geodesic_sphere(int frequency, double radius) {
   return TriangleSurface(std::move(vertices), std::move(triangles), "geodesic sphere f=" + std::to_string(frequency));
 }
 
-class EmbreeScene {
- public:
-  explicit EmbreeScene(const TriangleSurface& surface) {
-    device_ = rtcNewDevice(nullptr);
-    scene_ = rtcNewScene(device_);
-    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), surface.vertices().size()));
-    for (std::size_t i = 0; i < surface.vertices().size(); ++i) {
-      for (int k = 0; k < 3; ++k) vertices[3 * i + k] = static_cast<float>(surface.vertices()[i][k]);
-    }
-    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), surface.triangles().size()));
-    for (std::size_t i = 0; i < surface.triangles().size(); ++i) {
-      for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(surface.triangles()[i][k]);
-    }
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene_, geometry);
-    rtcReleaseGeometry(geometry);
-    rtcCommitScene(scene_);
-  }
-  ~EmbreeScene() {
-    rtcReleaseScene(scene_);
-    rtcReleaseDevice(device_);
-  }
-  EmbreeScene(const EmbreeScene&) = delete;
-  EmbreeScene& operator=(const EmbreeScene&) = delete;
-
-  /// First hit of from + t (to − from), 0 ≤ t ≤ 1: the triangle or −1.
-  int first_hit(const Vector3d& from, const Vector3d& to) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRayHit query{};
-    query.ray.org_x = static_cast<float>(from.x());
-    query.ray.org_y = static_cast<float>(from.y());
-    query.ray.org_z = static_cast<float>(from.z());
-    query.ray.dir_x = static_cast<float>(to.x() - from.x());
-    query.ray.dir_y = static_cast<float>(to.y() - from.y());
-    query.ray.dir_z = static_cast<float>(to.z() - from.z());
-    query.ray.tnear = 0;
-    query.ray.tfar = 1;
-    query.ray.mask = ~0u;
-    query.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    query.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene_, &context, &query);
-    return query.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1 : static_cast<int>(query.hit.primID);
-  }
-
- private:
-  RTCDevice device_;
-  RTCScene scene_;
-};
 
 struct Segment {
   Vector3d from, to;
@@ -222,7 +171,7 @@ class Scene {
     return *slot;
   }
   const EmbreeScene& embree() {
-    if (!embree_) embree_ = std::make_unique<EmbreeScene>(surface_);
+    if (!embree_) embree_ = std::make_unique<EmbreeScene>(surface_.vertices(), surface_.triangles());
     return *embree_;
   }
 
@@ -296,10 +245,10 @@ void first_contact_embree(benchmark::State& state, Scene* scene, bool coherent) 
   const EmbreeScene& embree = scene->embree();
   const std::vector<Segment>& segments = coherent ? scene->coherent_segments() : scene->segments();
   int hits = 0;
-  for (const Segment& s : segments) hits += embree.first_hit(s.from, s.to) >= 0;
+  for (const Segment& s : segments) hits += embree.first_hit(s.from, s.to - s.from, 1.0).second >= 0;
   std::size_t i = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(embree.first_hit(segments[i].from, segments[i].to));
+    benchmark::DoNotOptimize(embree.first_hit(segments[i].from, segments[i].to - segments[i].from, 1.0));
     i = (i + 1) & (query_count - 1);
   }
   state.counters["hit_fraction"] = static_cast<double>(hits) / query_count;

@@ -91,7 +91,7 @@ Material tissue() {
 LocalModelSettings loop_settings(int node_count, SolverKind kind, double oversampling = 0.0) {
   LocalModelSettings settings;
   settings.formulation = touchstone::realtime::mfs::Formulation::collocation;
-  settings.force.haptic_method = touchstone::realtime::mfs::ForceMethod::traction_integral;
+  settings.force.haptic_method = touchstone::realtime::mfs::default_haptic_method(settings.formulation, false);
   settings.sprinkling.node_count = node_count;
   settings.sprinkling.local_radius_m = local_radius_m;
   if (oversampling > 0) settings.sprinkling.oversampling = oversampling;

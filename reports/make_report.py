@@ -56,6 +56,18 @@ def get(d, *path):
     return d
 
 
+def finish(fig, ax, xlabel, ylabel, title, path, log_grid=False):
+    """Labels, grid and legend of a report plot; writes it to `path` and closes it."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both" if log_grid else "major")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(out):
     with open(os.path.join(out, "results.json")) as f:
         results = json.load(f)
@@ -92,14 +104,9 @@ def main(out):
         for c in ([group[0], group[-1]] if len(group) > 1 else group):
             ax.plot(depths_mm, [1e3 * f if finite(f) else float("nan") for f in c["force_depth_N"]], "o--", ms=3,
                     label="MFS %s N=%d" % (s["name"], c["params"]["node_count"]))
-    ax.set_xlabel("tool-tip depth δ [mm]")
-    ax.set_ylabel("tool force along d [mN]")
-    ax.set_title("Force against depth (%s, %s)" % (problem["benchmark"], problem["contact"]))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(plots, "force_depth.png"), dpi=120)
-    plt.close(fig)
+    finish(fig, ax, "tool-tip depth δ [mm]", "tool force along d [mN]",
+           "Force against depth (%s, %s)" % (problem["benchmark"], problem["contact"]),
+           os.path.join(plots, "force_depth.png"))
 
     # Force error against N.
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
@@ -115,14 +122,8 @@ def main(out):
     if finite(ref_unc) and ref_unc > 0:
         ax.axhline(100 * ref_unc, color="grey", lw=1)
         ax.annotate("reference's own error estimate %s" % pct(ref_unc), (20, 100 * ref_unc), fontsize=7, va="bottom")
-    ax.set_xlabel("MFS nodes N")
-    ax.set_ylabel("force error vs FEM reference [%]")
-    ax.set_title("Force error against node count")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(plots, "force_error_vs_n.png"), dpi=120)
-    plt.close(fig)
+    finish(fig, ax, "MFS nodes N", "force error vs FEM reference [%]", "Force error against node count",
+           os.path.join(plots, "force_error_vs_n.png"), log_grid=True)
 
     # Error against run time (Pareto front over every configuration).
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
@@ -149,14 +150,8 @@ def main(out):
     if front:
         ax.loglog([p[0] for p in front], [100 * p[1] for p in front], "k-", lw=1, label="Pareto front")
     ax.axhline(5.0, color="g", ls=":", lw=1)
-    ax.set_xlabel("run time (build + solve) [s]")
-    ax.set_ylabel("force error [%]")
-    ax.set_title("Error against run time")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(plots, "pareto.png"), dpi=120)
-    plt.close(fig)
+    finish(fig, ax, "run time (build + solve) [s]", "force error [%]", "Error against run time",
+           os.path.join(plots, "pareto.png"), log_grid=True)
 
     # Displacement profile along the axis below the tool.
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
@@ -185,14 +180,9 @@ def main(out):
         if group:
             x, y = axis_profile(get(group[-1], "qoi", "probes"))
             ax.plot(x, y, "o--", label="MFS %s N=%d" % (s["name"], group[-1]["params"]["node_count"]))
-    ax.set_xlabel("depth below the contact point along d [a]")
-    ax.set_ylabel("displacement along d [mm] at δ = %.3g mm" % (1e3 * results["depths_m"][-1]))
-    ax.set_title("Displacement along the axis")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(plots, "displacement_axis.png"), dpi=120)
-    plt.close(fig)
+    finish(fig, ax, "depth below the contact point along d [a]",
+           "displacement along d [mm] at δ = %.3g mm" % (1e3 * results["depths_m"][-1]), "Displacement along the axis",
+           os.path.join(plots, "displacement_axis.png"))
 
     # ---------------------------------------------------------------- text
     prov = results["provenance"]

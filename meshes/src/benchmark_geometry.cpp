@@ -1,4 +1,5 @@
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "gmsh_session.hpp"
 
 #include <gmsh.h>
 
@@ -12,7 +13,6 @@
 #include <fstream>
 #include <initializer_list>
 #include <map>
-#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -534,31 +534,6 @@ Classified prepare_model(const Shape& shape, ScriptedModel& model) {
   return classified;
 }
 
-/// gmsh is one global state: every use is serialised and runs between initialize and finalize,
-/// so options and models never leak from one call into the next.
-std::mutex& gmsh_mutex() {
-  static std::mutex mutex;
-  return mutex;
-}
-
-class GmshSession {
- public:
-  GmshSession() {
-    gmsh::initialize(0, nullptr, false);
-    gmsh::option::setNumber("General.Terminal", 0);
-    gmsh::model::add("touchstone");
-  }
-  ~GmshSession() {
-    try {
-      gmsh::finalize();
-    } catch (...) {
-      // Nothing useful can be done about a failed teardown while unwinding.
-    }
-  }
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
-};
-
 std::string describe_parameters(const MeshParameters& p) {
   std::ostringstream text;
   text << "benchmark " << to_string(p.benchmark);
@@ -584,8 +559,7 @@ auto run_gmsh(const char* operation, const MeshParameters& p, const std::string&
                               ", path '" + path + "': " + reason);
   };
   try {
-    std::lock_guard<std::mutex> lock(gmsh_mutex());
-    GmshSession session;
+    internal::GmshSession session("touchstone");
     return task();
   } catch (const std::string& gmsh_error) {
     throw fail("gmsh: " + gmsh_error);

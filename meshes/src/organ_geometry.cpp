@@ -2,6 +2,7 @@
 
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "gmsh_session.hpp"
 
 #include <Eigen/Geometry>
 #include <gmsh.h>
@@ -15,7 +16,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
-#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -72,32 +72,6 @@ constexpr double cap_enlargement = 1.03;
 /// Triangles per unit area times h² of gmsh's frontal-Delaunay surface meshes at uniform size
 /// h (measured on both shapes: 2.4–2.7); only the first guess of the size search uses it.
 constexpr double triangles_per_area_h2 = 2.6;
-
-/// gmsh is one global state: calls are serialised and run between initialize and finalize, so
-/// options and models never leak from one call into the next.
-std::mutex& gmsh_mutex() {
-  static std::mutex mutex;
-  return mutex;
-}
-
-class GmshSession {
- public:
-  GmshSession() {
-    gmsh::initialize(0, nullptr, false);
-    gmsh::option::setNumber("General.Terminal", 0);
-    gmsh::option::setNumber("General.NumThreads", 1);
-    gmsh::model::add("organ");
-  }
-  ~GmshSession() {
-    try {
-      gmsh::finalize();
-    } catch (...) {
-      // Nothing useful can be done about a failed teardown while unwinding.
-    }
-  }
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
-};
 
 std::string describe(const OrganParameters& p) {
   std::ostringstream text;
@@ -378,8 +352,9 @@ void OrganParameters::validate() const {
 OrganMesh generate_organ_mesh(const OrganParameters& parameters) {
   parameters.validate();
   try {
-    std::lock_guard<std::mutex> lock(gmsh_mutex());
-    GmshSession session;
+    internal::GmshSession session("organ");
+    // One thread: the triangle count, and so the size search, must not depend on scheduling.
+    gmsh::option::setNumber("General.NumThreads", 1);
     return generate(parameters);
   } catch (const std::string& gmsh_error) {
     throw std::runtime_error("generate_organ_mesh failed for " + describe(parameters) + ": gmsh: " + gmsh_error);

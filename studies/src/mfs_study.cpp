@@ -480,15 +480,13 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   mfs::LocalModelSettings& s = study.model;
   s = paper_mode ? mfs::paper_settings() : mfs::LocalModelSettings{};
   s.paper_mode = paper_mode;
-  // Strong form at points (the paper) or weak form (De & Bathe's MFS); Galerkin's tool force is
-  // the reaction, so that becomes its default haptic method.
+  // Strong form at points (the paper) or weak form (De & Bathe's MFS), each with the haptic
+  // method that suits it unless [force] haptic_method says otherwise.
   s.formulation = config.choice("formulation", {"collocation", "galerkin"}, mfs::to_string(s.formulation)) == "galerkin"
                       ? mfs::Formulation::galerkin
                       : mfs::Formulation::collocation;
-  if (s.formulation == mfs::Formulation::galerkin) {
-    s.force.haptic_method = mfs::ForceMethod::reaction;
-    s.sprinkling.oversampling = 1;
-  }
+  s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
+  if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
   ConfigTable galerkin = config.table("galerkin");
   s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
   s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
@@ -593,10 +591,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
   f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
   f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
-  // Unset, the haptic method follows the formulation: the reaction for the weak form (its
-  // constraint force), the traction integral for least-squares collocation (whose reaction on
-  // the cut is off by hundreds of per cent), eq. 9 for the paper's model.
-  if (s.formulation == mfs::Formulation::collocation && !s.paper_mode) f.haptic_method = mfs::ForceMethod::traction_integral;
+  // Unset, the haptic method follows the formulation (set above).
   f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
   f.reaction = force.boolean("reaction", f.reaction);
   f.energy = force.boolean("energy", f.energy);

@@ -1,3 +1,5 @@
+#include "support/temporary_directory.hpp"
+#include "support/expect_invalid_argument.hpp"
 #include "touchstone/meshes/organ_geometry.hpp"
 
 #include "touchstone/meshes/surface_mesh_io.hpp"
@@ -19,6 +21,9 @@
 
 namespace touchstone::meshes {
 namespace {
+
+using touchstone::testing::TemporaryDirectory;
+using touchstone::testing::expect_invalid_argument;
 
 constexpr double pi = 3.14159265358979323846;
 
@@ -114,38 +119,6 @@ TEST(ORGAN_SUITE, HemisphereMatchesAnalyticAreaAndVolume) {
 
 #ifndef TOUCHSTONE_LARGE_ORGANS
 
-class TemporaryDirectory {
- public:
-  TemporaryDirectory()
-      : path_(std::filesystem::temp_directory_path() /
-              ("touchstone_organ_" + std::to_string(::getpid()) + "_" + std::to_string(count_++))) {
-    std::filesystem::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  std::string path(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  static inline int count_ = 0;
-  std::filesystem::path path_;
-};
-
-void expect_error(const std::function<void()>& action, std::initializer_list<std::string> fragments) {
-  try {
-    action();
-    ADD_FAILURE() << "no exception; expected one mentioning '" << *fragments.begin() << "'";
-  } catch (const std::invalid_argument& error) {
-    const std::string message = error.what();
-    for (const std::string& fragment : fragments) {
-      EXPECT_NE(message.find(fragment), std::string::npos) << "'" << fragment << "' missing from: " << message;
-    }
-  } catch (const std::exception& error) {
-    ADD_FAILURE() << "wrong exception type: " << error.what();
-  }
-}
-
 TEST(OrganGeometry, SameParametersGiveTheSameMesh) {
   for (const OrganShape shape : {OrganShape::stomach, OrganShape::hemisphere}) {
     const OrganMesh first = generate_organ_mesh(parameters(shape, 500));
@@ -157,7 +130,7 @@ TEST(OrganGeometry, SameParametersGiveTheSameMesh) {
 }
 
 TEST(OrganGeometry, WritesFilesThatReadBackExactly) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("organ");
   OrganParameters p = parameters(OrganShape::hemisphere, 600);
   for (const char* name : {"hemisphere.msh", "hemisphere.vtp"}) {
     SCOPED_TRACE(name);
@@ -178,22 +151,22 @@ TEST(OrganGeometry, RejectsBadParametersAndPaths) {
     change(p);
     return p;
   };
-  expect_error([&] { with([](OrganParameters& p) { p.target_triangles = 10; }).validate(); },
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.target_triangles = 10; }).validate(); },
                {"OrganParameters.target_triangles = 10"});
-  expect_error([&] { with([](OrganParameters& p) { p.relative_tolerance = 0; }).validate(); },
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.relative_tolerance = 0; }).validate(); },
                {"OrganParameters.relative_tolerance = 0"});
-  expect_error([&] { with([](OrganParameters& p) { p.stomach_flattening = 1.2; }).validate(); },
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.stomach_flattening = 1.2; }).validate(); },
                {"OrganParameters.stomach_flattening = 1.2", "ellipses"});
-  expect_error([&] { with([](OrganParameters& p) { p.stomach_scale = std::nan(""); }).validate(); },
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.stomach_scale = std::nan(""); }).validate(); },
                {"OrganParameters.stomach_scale = nan"});
-  expect_error([&] { with([](OrganParameters& p) { p.hemisphere_radius_m = -1; }).validate(); },
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.hemisphere_radius_m = -1; }).validate(); },
                {"OrganParameters.hemisphere_radius_m = -1"});
-  expect_error([&] { with([](OrganParameters& p) { p.max_passes = 0; }).validate(); }, {"OrganParameters.max_passes"});
-  expect_error([&] { organ_shape_from_string("liver"); }, {"'liver'", "stomach, hemisphere"});
+  expect_invalid_argument([&] { with([](OrganParameters& p) { p.max_passes = 0; }).validate(); }, {"OrganParameters.max_passes"});
+  expect_invalid_argument([&] { organ_shape_from_string("liver"); }, {"'liver'", "stomach, hemisphere"});
   EXPECT_EQ(organ_shape_from_string("Hemisphere"), OrganShape::hemisphere);
 
-  const TemporaryDirectory directory;
-  expect_error([&] { write_organ_mesh(OrganParameters{}, directory.path("organ.ply")); }, {"organ.ply", "unsupported"});
+  const TemporaryDirectory directory("organ");
+  expect_invalid_argument([&] { write_organ_mesh(OrganParameters{}, directory.path("organ.ply")); }, {"organ.ply", "unsupported"});
   EXPECT_THROW(write_organ_mesh(OrganParameters{}, directory.path("no/such/dir/organ.msh")), std::runtime_error);
   // A search that cannot converge in one pass says so, with the counts it saw.
   OrganParameters one_pass = parameters(OrganShape::hemisphere, 5000);

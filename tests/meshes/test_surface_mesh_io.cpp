@@ -1,3 +1,5 @@
+#include "support/temporary_directory.hpp"
+#include "support/expect_invalid_argument.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 
 #include "touchstone/realtime/geometry/icosphere.hpp"
@@ -25,6 +27,9 @@
 namespace touchstone::meshes {
 namespace {
 
+using touchstone::testing::TemporaryDirectory;
+using touchstone::testing::expect_invalid_argument;
+
 using Eigen::Vector3d;
 using Eigen::Vector3i;
 using realtime::geometry::TriangleMeshData;
@@ -32,48 +37,9 @@ using realtime::geometry::TriangleSurface;
 
 constexpr double pi = 3.14159265358979323846;
 
-/// A directory of its own per test process (tests run in parallel under ctest -j).
-class TemporaryDirectory {
- public:
-  TemporaryDirectory()
-      : path_(std::filesystem::temp_directory_path() /
-              ("touchstone_surface_io_" + std::to_string(::getpid()) + "_" + std::to_string(count_++))) {
-    std::filesystem::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name, const std::string& content) const {
-    const std::string path = (path_ / name).string();
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-  std::string path(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  static inline int count_ = 0;
-  std::filesystem::path path_;
-};
-
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// Runs `action`, expects std::invalid_argument whose message contains every fragment.
-void expect_error(const std::function<void()>& action, std::initializer_list<std::string> fragments) {
-  try {
-    action();
-    ADD_FAILURE() << "no exception; expected one mentioning '" << *fragments.begin() << "'";
-  } catch (const std::invalid_argument& error) {
-    const std::string message = error.what();
-    for (const std::string& fragment : fragments) {
-      EXPECT_NE(message.find(fragment), std::string::npos) << "'" << fragment << "' missing from: " << message;
-    }
-  } catch (const std::exception& error) {
-    ADD_FAILURE() << "wrong exception type: " << error.what();
-  }
 }
 
 /// The sphere of the round trips: 320 triangles, coordinates that are not short decimals.
@@ -116,7 +82,7 @@ void expect_same_surface(const TriangleMeshData& expected, const SurfaceMesh& re
 // Round trips.
 
 TEST(SurfaceMeshIo, ExactFormatsRoundTripVerticesAndTriangles) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = sphere();
   for (const char* name : {"sphere.vtp", "sphere.vtk", "sphere.obj", "sphere.msh", "SPHERE.VTP"}) {
     SCOPED_TRACE(name);
@@ -136,7 +102,7 @@ TEST(SurfaceMeshIo, ExactFormatsRoundTripVerticesAndTriangles) {
 }
 
 TEST(SurfaceMeshIo, StlRoundTripsBinaryAndAsciiAfterWelding) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = float_sphere();
   for (const bool ascii : {false, true}) {
     SCOPED_TRACE(ascii ? "ASCII" : "binary");
@@ -157,7 +123,7 @@ TEST(SurfaceMeshIo, StlRoundTripsBinaryAndAsciiAfterWelding) {
 }
 
 TEST(SurfaceMeshIo, UnitScaleConvertsMillimetreFiles) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = sphere();
   SurfaceWriteOptions millimetres;
   millimetres.unit_scale = 1e-3;
@@ -176,13 +142,13 @@ TEST(SurfaceMeshIo, UnitScaleConvertsMillimetreFiles) {
   EXPECT_NEAR(surface.volume_m3(), original.volume_m3(), 1e-12 * original.volume_m3());
 
   options.unit_scale = 0;
-  expect_error([&] { read_surface_mesh(path, options); }, {"SurfaceReadOptions.unit_scale = 0"});
+  expect_invalid_argument([&] { read_surface_mesh(path, options); }, {"SurfaceReadOptions.unit_scale = 0"});
   options.unit_scale = 1;
   options.weld_relative_tolerance = -1;
-  expect_error([&] { read_surface_mesh(path, options); }, {"weld_relative_tolerance"});
+  expect_invalid_argument([&] { read_surface_mesh(path, options); }, {"weld_relative_tolerance"});
   SurfaceWriteOptions bad;
   bad.unit_scale = std::nan("");
-  expect_error([&] { write_surface_mesh(path, mesh.vertices, mesh.triangles, bad); }, {"unit_scale"});
+  expect_invalid_argument([&] { write_surface_mesh(path, mesh.vertices, mesh.triangles, bad); }, {"unit_scale"});
 }
 
 // The unit cube [0, 1]³ with quadrilateral faces, counter-clockwise seen from outside.
@@ -204,7 +170,7 @@ f 4 1 5 8
 )";
 
 TEST(SurfaceMeshIo, PolygonsAreTriangulatedKeepingTheirNumbers) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const std::string path = directory.file("cube.obj", cube_obj);
   const SurfaceMesh read = read_surface_mesh(path);
   EXPECT_EQ(read.triangles.size(), 12u);
@@ -257,7 +223,7 @@ TRIANGLE_STRIPS 4 20
 }
 
 TEST(SurfaceMeshIo, WeldingMergesSoupsOnRequest) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   // The cube as a soup: every face has its own four vertices.
   std::ostringstream soup;
   soup.precision(17);
@@ -274,7 +240,7 @@ TEST(SurfaceMeshIo, WeldingMergesSoupsOnRequest) {
   }
   for (int f = 0; f < 6; ++f) soup << "f " << 4 * f + 1 << ' ' << 4 * f + 2 << ' ' << 4 * f + 3 << ' ' << 4 * f + 4 << '\n';
   const std::string path = directory.file("soup.obj", soup.str());
-  expect_error([&] { load_surface(path); }, {path, "duplicated vertices", "weld"});
+  expect_invalid_argument([&] { load_surface(path); }, {path, "duplicated vertices", "weld"});
   SurfaceReadOptions weld;
   weld.weld_vertices = true;
   const SurfaceMesh welded = read_surface_mesh(path, weld);
@@ -303,7 +269,7 @@ std::string obj(const std::string& vertices, const std::vector<std::string>& fac
 }
 
 TEST(SurfaceMeshIo, EachDefectIsNamedWithTheFileAndElement) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const auto load = [&](const std::string& name, const std::string& content) {
     return directory.file(name, content);
   };
@@ -314,21 +280,21 @@ TEST(SurfaceMeshIo, EachDefectIsNamedWithTheFileAndElement) {
   std::vector<std::string> faces = octahedron_faces;
   faces.erase(faces.begin() + 2);
   const std::string hole = load("hole.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { load_surface(hole); },
+  expect_invalid_argument([&] { load_surface(hole); },
                {hole, "not closed", "1 hole", "3 boundary edges", "(OBJ vertices ", "OBJ face "});
 
   // Flipped: face 4 reversed.
   faces = octahedron_faces;
   faces[3] = "4 5 1";
   const std::string flipped = load("flipped.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { load_surface(flipped); },
+  expect_invalid_argument([&] { load_surface(flipped); },
                {flipped, "inconsistent orientation", "1 triangle flipped", "triangle 3 (OBJ face 4)", " -> "});
 
   // Duplicate triangle: face 9 repeats face 1 in another order.
   faces = octahedron_faces;
   faces.push_back("5 1 3");
   const std::string duplicate = load("duplicate.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { load_surface(duplicate); },
+  expect_invalid_argument([&] { load_surface(duplicate); },
                {duplicate, "1 duplicate triangle", "triangle 0 (OBJ face 1) and triangle 8 (OBJ face 9)"});
 
   // Degenerate: face 1 split at a point of its edge 1–3; the piece (1, 3, 7) has no area.
@@ -337,11 +303,11 @@ TEST(SurfaceMeshIo, EachDefectIsNamedWithTheFileAndElement) {
   faces.push_back("3 5 7");
   faces.push_back("5 1 7");
   const std::string degenerate = load("degenerate.obj", obj(std::string(octahedron_vertices) + "v 0.5 0.5 0\n", faces));
-  expect_error([&] { load_surface(degenerate); }, {degenerate, "1 degenerate triangle", "triangle 0 (OBJ face 1)", "area"});
+  expect_invalid_argument([&] { load_surface(degenerate); }, {degenerate, "1 degenerate triangle", "triangle 0 (OBJ face 1)", "area"});
   faces = octahedron_faces;
   faces[0] = "1 1 5";
   const std::string repeated = load("repeated.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { load_surface(repeated); }, {repeated, "degenerate", "OBJ face 1", "repeats vertex 0"});
+  expect_invalid_argument([&] { load_surface(repeated); }, {repeated, "degenerate", "OBJ face 1", "repeats vertex 0"});
 
   // Duplicated vertex: a second octahedron, shifted by 2 along x, touches the first at
   // (1, 0, 0) with a vertex of its own.
@@ -354,55 +320,55 @@ TEST(SurfaceMeshIo, EachDefectIsNamedWithTheFileAndElement) {
     faces.push_back(std::to_string(a + 6) + " " + std::to_string(b + 6) + " " + std::to_string(c + 6));
   }
   const std::string touching = load("touching.obj", obj(two, faces));
-  expect_error([&] { load_surface(touching); },
+  expect_invalid_argument([&] { load_surface(touching); },
                {touching, "1 duplicated vertex", "vertex 0 (OBJ vertex 1) and vertex 7 (OBJ vertex 8) at (1, 0, 0)"});
 
   // Non-manifold edge: two tetrahedra sharing the edge 1–2.
   const std::string tetrahedra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 -1 0\nv 0 0 -1\n";
   const std::string fin = load("fin.obj", obj(tetrahedra, {"1 3 2", "1 2 4", "1 4 3", "2 3 4",
                                                              "1 5 2", "1 2 6", "1 6 5", "2 5 6"}));
-  expect_error([&] { load_surface(fin); },
+  expect_invalid_argument([&] { load_surface(fin); },
                {fin, "non-manifold", "1 edge shared by more than two triangles", "edge (0, 1) (OBJ vertices 1, 2)",
                 "4 triangles", "triangle 5 (OBJ face 6)"});
 
   // Non-manifold vertex: two tetrahedra sharing vertex 1 only.
   const std::string pinch = load("pinch.obj", obj(tetrahedra + "v -1 0 0\n", {"1 3 2", "1 2 4", "1 4 3", "2 3 4",
                                                                                 "1 7 5", "1 6 7", "1 5 6", "7 6 5"}));
-  expect_error([&] { load_surface(pinch); },
+  expect_invalid_argument([&] { load_surface(pinch); },
                {pinch, "1 non-manifold vertex", "vertex 0 (OBJ vertex 1) at (0, 0, 0)", "separate fans"});
 
   // Inward: every face reversed.
   faces.clear();
   for (const std::string& face : octahedron_faces) faces.push_back(std::string(face.rbegin(), face.rend()));
   const std::string inward = load("inward.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { load_surface(inward); }, {inward, "non-positive volume (-1.33333 m^3)", "inward"});
+  expect_invalid_argument([&] { load_surface(inward); }, {inward, "non-positive volume (-1.33333 m^3)", "inward"});
 
   // Index out of range: caught by the reader, in the file's numbering.
   faces = octahedron_faces;
   faces[5] = "2 3 9";
   const std::string range = load("range.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { read_surface_mesh(range); },
+  expect_invalid_argument([&] { read_surface_mesh(range); },
                {range, "OBJ face 6 (line 12) refers to vertex 9, but the file has 6 vertices (numbered from 1)"});
 
   // Non-finite: VTK's OBJ reader would misread "nan"; the check names the line and vertex.
   const std::string nan = load("nan.obj", obj("v 1 0 0\nv -1 nan 0\n" + std::string(octahedron_vertices).substr(17),
                                               octahedron_faces));
-  expect_error([&] { read_surface_mesh(nan); }, {nan, "line 2: OBJ vertex 2 has a non-finite coordinate 'nan'"});
+  expect_invalid_argument([&] { read_surface_mesh(nan); }, {nan, "line 2: OBJ vertex 2 has a non-finite coordinate 'nan'"});
   // In STL (read with strtod) NaN arrives and validation names it.
   const std::string stl_nan = load("nan.stl",
                                    "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 nan 0\n"
                                    "endloop\nendfacet\nendsolid s\n");
-  expect_error([&] { load_surface(stl_nan); }, {stl_nan, "non-finite coordinate in 1 vertex", "vertex 2 = (0, nan, 0)"});
+  expect_invalid_argument([&] { load_surface(stl_nan); }, {stl_nan, "non-finite coordinate in 1 vertex", "vertex 2 = (0, nan, 0)"});
 
   // A polygon with two vertices.
   faces = octahedron_faces;
   faces.push_back("1 2");
   const std::string line = load("line_face.obj", obj(octahedron_vertices, faces));
-  expect_error([&] { read_surface_mesh(line); }, {line, "OBJ face 9 (line 15) has 2 vertices"});
+  expect_invalid_argument([&] { read_surface_mesh(line); }, {line, "OBJ face 9 (line 15) has 2 vertices"});
 }
 
 TEST(SurfaceMeshIo, ValidateSurfaceMeshListsEveryDefect) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   // Face 3 missing (a hole) and face 5 reversed (flipped): both reported, in order.
   std::vector<std::string> faces = octahedron_faces;
   faces[4] = "6 1 3";
@@ -414,7 +380,7 @@ TEST(SurfaceMeshIo, ValidateSurfaceMeshListsEveryDefect) {
   EXPECT_EQ(defects[0].kind, realtime::geometry::SurfaceDefectKind::boundary_edge);
   EXPECT_EQ(defects[1].kind, realtime::geometry::SurfaceDefectKind::inconsistent_orientation);
   EXPECT_EQ(defects[1].message.rfind(path + ": inconsistent orientation", 0), 0u) << defects[1].message;
-  expect_error([&] { load_surface(path); }, {path, "not closed", "(further defects: inconsistent orientation)"});
+  expect_invalid_argument([&] { load_surface(path); }, {path, "not closed", "(further defects: inconsistent orientation)"});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -428,7 +394,7 @@ std::string noise(std::size_t size, unsigned seed) {
 }
 
 TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = float_sphere();
   SurfaceWriteOptions ascii;
   ascii.ascii_stl = true;
@@ -436,17 +402,17 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
     SCOPED_TRACE(name);
     const std::string extension = name.substr(name.find('.'));
     const std::string missing = directory.path("missing" + extension);
-    expect_error([&] { read_surface_mesh(missing); }, {missing});
+    expect_invalid_argument([&] { read_surface_mesh(missing); }, {missing});
 
     const std::string empty = directory.file("empty" + extension, "");
-    expect_error([&] { read_surface_mesh(empty); }, {empty});
+    expect_invalid_argument([&] { read_surface_mesh(empty); }, {empty});
     const std::string blank = directory.file("blank" + extension, "\n\n  \n");
-    expect_error([&] { read_surface_mesh(blank); }, {blank});
+    expect_invalid_argument([&] { read_surface_mesh(blank); }, {blank});
     const std::string text = directory.file("text" + extension, "this is not a mesh\n1 2 3\n");
-    expect_error([&] { read_surface_mesh(text); }, {text});
+    expect_invalid_argument([&] { read_surface_mesh(text); }, {text});
     for (const unsigned seed : {1u, 2u}) {
       const std::string bytes = directory.file("noise" + extension, noise(seed == 1 ? 300 : 5000, seed));
-      expect_error([&] { read_surface_mesh(bytes); }, {bytes});
+      expect_invalid_argument([&] { read_surface_mesh(bytes); }, {bytes});
     }
 
     // Prefixes of a good file: an error from the reader, or (a prefix that ends between
@@ -457,22 +423,22 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
     const std::string content = read_file(good);
     for (std::size_t length = 1; length + 8 < content.size(); length += content.size() / 23 + 1) {
       const std::string prefix = directory.file("prefix" + extension, content.substr(0, length));
-      expect_error([&] { load_surface(prefix); }, {prefix});
+      expect_invalid_argument([&] { load_surface(prefix); }, {prefix});
     }
   }
-  expect_error([&] { read_surface_mesh(directory.path("mesh.ply")); }, {"mesh.ply", "unsupported", ".stl"});
-  expect_error([&] { read_surface_mesh(directory.path("no_extension")); }, {"no_extension", "unsupported"});
+  expect_invalid_argument([&] { read_surface_mesh(directory.path("mesh.ply")); }, {"mesh.ply", "unsupported", ".stl"});
+  expect_invalid_argument([&] { read_surface_mesh(directory.path("no_extension")); }, {"no_extension", "unsupported"});
   std::filesystem::create_directory(directory.path("folder.obj"));
-  expect_error([&] { read_surface_mesh(directory.path("folder.obj")); }, {"folder.obj", "not a regular file"});
+  expect_invalid_argument([&] { read_surface_mesh(directory.path("folder.obj")); }, {"folder.obj", "not a regular file"});
 
   // A binary STL whose facet count does not match its size: VTK would read it silently.
   const std::string binary = directory.path("count.stl");
   write_surface_mesh(binary, mesh.vertices, mesh.triangles);
   std::string bytes = read_file(binary);
   const std::string cut = directory.file("cut.stl", bytes.substr(0, bytes.size() - 50));
-  expect_error([&] { read_surface_mesh(cut); }, {cut, "header announces 320 facets, the file holds 319"});
+  expect_invalid_argument([&] { read_surface_mesh(cut); }, {cut, "header announces 320 facets, the file holds 319"});
   const std::string partial = directory.file("partial.stl", bytes.substr(0, bytes.size() - 20));
-  expect_error([&] { read_surface_mesh(partial); }, {partial, "not a whole number of 50-byte facets"});
+  expect_invalid_argument([&] { read_surface_mesh(partial); }, {partial, "not a whole number of 50-byte facets"});
 
   // Corrupt headers are caught before VTK allocates or misreads: a mangled legacy version (VTK
   // would read version 5 cells in the old layout, out of bounds) and a count no file of that
@@ -481,35 +447,35 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
   std::string legacy = read_file(directory.path("header.vtk"));
   legacy[legacy.find("5.1")] = 'x';
   const std::string version = directory.file("version.vtk", legacy);
-  expect_error([&] { read_surface_mesh(version); }, {version, "# vtk DataFile Version <major>.<minor>"});
+  expect_invalid_argument([&] { read_surface_mesh(version); }, {version, "# vtk DataFile Version <major>.<minor>"});
   write_surface_mesh(directory.path("header.vtp"), mesh.vertices, mesh.triangles);
   std::string xml = read_file(directory.path("header.vtp"));
   xml.replace(xml.find("NumberOfPoints=\"162\""), 20, "NumberOfPoints=\"999999999162\"");
   const std::string count = directory.file("count.vtp", xml);
-  expect_error([&] { read_surface_mesh(count); }, {count, "declares 999999999162 points"});
+  expect_invalid_argument([&] { read_surface_mesh(count); }, {count, "declares 999999999162 points"});
 
   // A legacy file of another dataset type.
   const std::string grid = directory.file("grid.vtk",
                                           "# vtk DataFile Version 4.2\ngrid\nASCII\nDATASET UNSTRUCTURED_GRID\n"
                                           "POINTS 3 double\n0 0 0 1 0 0 0 1 0\nCELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n5\n");
-  expect_error([&] { read_surface_mesh(grid); }, {grid, "not a legacy VTK POLYDATA file"});
+  expect_invalid_argument([&] { read_surface_mesh(grid); }, {grid, "not a legacy VTK POLYDATA file"});
   // Only points and lines.
   const std::string lines = directory.file("lines.obj", "v 0 0 0\nv 1 0 0\nl 1 2\n");
-  expect_error([&] { read_surface_mesh(lines); }, {lines, "no polygons"});
+  expect_invalid_argument([&] { read_surface_mesh(lines); }, {lines, "no polygons"});
   // Groups are for .msh files.
   SurfaceReadOptions groups;
   groups.msh_groups = {"free"};
-  expect_error([&] { read_surface_mesh(directory.path("good_s.obj"), groups); }, {"msh_groups", ".msh files only"});
+  expect_invalid_argument([&] { read_surface_mesh(directory.path("good_s.obj"), groups); }, {"msh_groups", ".msh files only"});
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = sphere();
   std::vector<Vector3i> bad = mesh.triangles;
   bad[3][1] = 999;
-  expect_error([&] { write_surface_mesh(directory.path("bad.vtp"), mesh.vertices, bad); },
+  expect_invalid_argument([&] { write_surface_mesh(directory.path("bad.vtp"), mesh.vertices, bad); },
                {"bad.vtp", "triangle 3", "vertex 999"});
-  expect_error([&] { write_surface_mesh(directory.path("bad.ply"), mesh.vertices, mesh.triangles); }, {"unsupported"});
+  expect_invalid_argument([&] { write_surface_mesh(directory.path("bad.ply"), mesh.vertices, mesh.triangles); }, {"unsupported"});
   for (const char* name : {"x.vtp", "x.vtk", "x.stl", "x.obj", "x.msh"}) {
     const std::string path = directory.path(std::string("no/such/dir/") + name);
     EXPECT_THROW(write_surface_mesh(path, mesh.vertices, mesh.triangles), std::runtime_error) << name;

@@ -164,8 +164,13 @@ LocalModelSettings paper_settings() {
   s.sprinkling.oversampling = 1;
   s.collocation.mls.basis = Basis::linear;
   s.solver.kind = SolverKind::dense_lu;
-  s.force.haptic_method = ForceMethod::paper_partition;
+  s.force.haptic_method = default_haptic_method(s.formulation, s.paper_mode);
   return s;
+}
+
+ForceMethod default_haptic_method(Formulation formulation, bool paper_mode) {
+  if (paper_mode) return ForceMethod::paper_partition;
+  return formulation == Formulation::galerkin ? ForceMethod::reaction : ForceMethod::traction_integral;
 }
 
 namespace {

@@ -1,13 +1,13 @@
 // The bounding-volume hierarchy against brute force over every triangle (independent
 // Möller–Trumbore, projection and winding-number implementations), against Embree, after a
 // refit, on degenerate input, and its counters.
+#include "support/embree_scene.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/collision/oriented_box.hpp"
 #include "touchstone/realtime/geometry/icosphere.hpp"
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
-#include <embree3/rtcore.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,6 +23,8 @@
 
 namespace touchstone::realtime::collision {
 namespace {
+
+using touchstone::testing::EmbreeScene;
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
@@ -406,59 +408,6 @@ INSTANTIATE_TEST_SUITE_P(
 // ---------------------------------------------------------------------------------------------
 // Embree (float) as an independent oracle for first-hit rays.
 
-class EmbreeScene {
- public:
-  explicit EmbreeScene(const Mesh& mesh) {
-    device_ = rtcNewDevice(nullptr);
-    scene_ = rtcNewScene(device_);
-    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertices.size()));
-    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-      for (int k = 0; k < 3; ++k) vertices[3 * i + k] = static_cast<float>(mesh.vertices[i][k]);
-    }
-    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-      for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(mesh.triangles[i][k]);
-    }
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene_, geometry);
-    rtcReleaseGeometry(geometry);
-    rtcCommitScene(scene_);
-  }
-  ~EmbreeScene() {
-    rtcReleaseScene(scene_);
-    rtcReleaseDevice(device_);
-  }
-  EmbreeScene(const EmbreeScene&) = delete;
-  EmbreeScene& operator=(const EmbreeScene&) = delete;
-
-  /// First hit: (t, triangle), triangle −1 for none.
-  std::pair<double, int> first_hit(const Vector3d& origin, const Vector3d& direction, double max_distance) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRayHit query{};
-    query.ray.org_x = static_cast<float>(origin.x());
-    query.ray.org_y = static_cast<float>(origin.y());
-    query.ray.org_z = static_cast<float>(origin.z());
-    query.ray.dir_x = static_cast<float>(direction.x());
-    query.ray.dir_y = static_cast<float>(direction.y());
-    query.ray.dir_z = static_cast<float>(direction.z());
-    query.ray.tnear = 0;
-    query.ray.tfar = static_cast<float>(max_distance);
-    query.ray.mask = ~0u;
-    query.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    query.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene_, &context, &query);
-    if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {infinity, -1};
-    return {query.ray.tfar, static_cast<int>(query.hit.primID)};
-  }
-
- private:
-  RTCDevice device_;
-  RTCScene scene_;
-};
 
 /// Distance from p (in the plane of triangle t) to the triangle's boundary.
 double distance_to_edges(const Mesh& mesh, int triangle, const Vector3d& p) {
@@ -474,7 +423,7 @@ double distance_to_edges(const Mesh& mesh, int triangle, const Vector3d& p) {
 
 TEST(BoundingVolumeHierarchy, FirstHitRaysAgreeWithEmbree) {
   for (const Mesh& mesh : {geometry::icosphere(4, radius), torus(64, 24, 0.7 * radius, 0.25 * radius), lobed_surface()}) {
-    const EmbreeScene embree(mesh);
+    const EmbreeScene embree(mesh.vertices, mesh.triangles);
     const BoundingVolumeHierarchy obb(mesh.vertices, mesh.triangles);
     QueryMaker maker(mesh, 99);
     // Float precision: coordinates to ~6e-8 relative, so agreement to 1e-5 of the size, and

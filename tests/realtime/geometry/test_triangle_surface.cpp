@@ -1,3 +1,5 @@
+#include "support/temporary_directory.hpp"
+#include "support/expect_invalid_argument.hpp"
 #include "touchstone/realtime/geometry/icosphere.hpp"
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 
@@ -28,6 +30,9 @@
 
 namespace touchstone::realtime::geometry {
 namespace {
+
+using touchstone::testing::TemporaryDirectory;
+using touchstone::testing::expect_invalid_argument;
 
 using Eigen::Vector3d;
 using Eigen::Vector3i;
@@ -272,32 +277,9 @@ void check_points_on_surface(const TriangleSurface& surface) {
 // ---------------------------------------------------------------------------------------------
 // Temporary files.
 
-class TemporaryDirectory {
- public:
-  TemporaryDirectory()
-      : path_(std::filesystem::temp_directory_path() /
-              ("touchstone_triangle_surface_" + std::to_string(::getpid()) + "_" + std::to_string(count_++))) {
-    std::filesystem::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name, const std::string& content) const {
-    const std::string path = (path_ / name).string();
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-  std::string path(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  static inline int count_ = 0;
-  std::filesystem::path path_;
-};
-
 /// The B1/B2 benchmark surface written by touchstone::meshes (generated once per test program).
 const std::string& benchmark_mesh(meshes::Benchmark benchmark) {
-  static const TemporaryDirectory directory;
+  static const TemporaryDirectory directory("triangle_surface");
   static std::map<meshes::Benchmark, std::string> paths;
   auto found = paths.find(benchmark);
   if (found == paths.end()) {
@@ -313,21 +295,6 @@ const std::string& benchmark_mesh(meshes::Benchmark benchmark) {
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// Runs `action`, expects std::invalid_argument whose message contains every fragment.
-void expect_error(const std::function<void()>& action, std::initializer_list<std::string> fragments) {
-  try {
-    action();
-    ADD_FAILURE() << "no exception; expected one mentioning '" << *fragments.begin() << "'";
-  } catch (const std::invalid_argument& error) {
-    const std::string message = error.what();
-    for (const std::string& fragment : fragments) {
-      EXPECT_NE(message.find(fragment), std::string::npos) << "'" << fragment << "' missing from: " << message;
-    }
-  } catch (const std::exception& error) {
-    ADD_FAILURE() << "wrong exception type: " << error.what();
-  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -517,50 +484,50 @@ TEST(TriangleSurface, RejectsBrokenSurfacesNamingTheProblem) {
 
   Mesh hole = good;
   hole.triangles.erase(hole.triangles.begin() + 17);
-  expect_error([&] { make(hole, "liver.obj"); }, {"liver.obj", "hole", "edge ("});
+  expect_invalid_argument([&] { make(hole, "liver.obj"); }, {"liver.obj", "hole", "edge ("});
 
   Mesh flipped = good;
   std::swap(flipped.triangles[23][0], flipped.triangles[23][1]);
-  expect_error([&] { make(flipped, "liver.obj"); }, {"liver.obj", "triangle 23", "orientation"});
+  expect_invalid_argument([&] { make(flipped, "liver.obj"); }, {"liver.obj", "triangle 23", "orientation"});
 
   Mesh duplicate = good;
   duplicate.triangles.push_back(good.triangles[5]);
-  expect_error([&] { make(duplicate); }, {"test surface", "triangle 5", "triangle 80", "duplicate"});
+  expect_invalid_argument([&] { make(duplicate); }, {"test surface", "triangle 5", "triangle 80", "duplicate"});
 
   Mesh reversed_duplicate = good;
   reversed_duplicate.triangles.push_back({good.triangles[5][1], good.triangles[5][0], good.triangles[5][2]});
-  expect_error([&] { make(reversed_duplicate); }, {"triangle 5", "duplicate"});
+  expect_invalid_argument([&] { make(reversed_duplicate); }, {"triangle 5", "duplicate"});
 
   // A fin: a third triangle on the edge of triangle 0.
   Mesh fin = good;
   fin.vertices.push_back({3, 3, 3});
   fin.triangles.push_back({good.triangles[0][0], good.triangles[0][1], static_cast<int>(good.vertices.size())});
-  expect_error([&] { make(fin); }, {"non-manifold", "3 triangles", "triangle 0", "triangle 80"});
+  expect_invalid_argument([&] { make(fin); }, {"non-manifold", "3 triangles", "triangle 0", "triangle 80"});
 
   Mesh not_a_number = good;
   not_a_number.vertices[11].y() = std::numeric_limits<double>::quiet_NaN();
-  expect_error([&] { make(not_a_number); }, {"vertex 11", "non-finite"});
+  expect_invalid_argument([&] { make(not_a_number); }, {"vertex 11", "non-finite"});
 
   Mesh infinite = good;
   infinite.vertices[3].z() = std::numeric_limits<double>::infinity();
-  expect_error([&] { make(infinite); }, {"vertex 3", "non-finite"});
+  expect_invalid_argument([&] { make(infinite); }, {"vertex 3", "non-finite"});
 
   Mesh out_of_range = good;
   out_of_range.triangles[9][2] = 42;
-  expect_error([&] { make(out_of_range); }, {"triangle 9", "vertex 42", "out of range"});
+  expect_invalid_argument([&] { make(out_of_range); }, {"triangle 9", "vertex 42", "out of range"});
   out_of_range.triangles[9][2] = -1;
-  expect_error([&] { make(out_of_range); }, {"triangle 9", "vertex -1", "out of range"});
+  expect_invalid_argument([&] { make(out_of_range); }, {"triangle 9", "vertex -1", "out of range"});
 
-  expect_error([&] { TriangleSurface({}, {}, "nothing.msh"); }, {"nothing.msh", "no triangles"});
-  expect_error([&] { TriangleSurface(good.vertices, {}, "nothing.msh"); }, {"no triangles"});
+  expect_invalid_argument([&] { TriangleSurface({}, {}, "nothing.msh"); }, {"nothing.msh", "no triangles"});
+  expect_invalid_argument([&] { TriangleSurface(good.vertices, {}, "nothing.msh"); }, {"no triangles"});
 
   Mesh inward = good;
   for (Vector3i& t : inward.triangles) std::swap(t[1], t[2]);
-  expect_error([&] { make(inward); }, {"non-positive volume", "inward"});
+  expect_invalid_argument([&] { make(inward); }, {"non-positive volume", "inward"});
 
   Mesh repeated = good;
   repeated.triangles[4][1] = repeated.triangles[4][0];
-  expect_error([&] { make(repeated); }, {"triangle 4", "degenerate"});
+  expect_invalid_argument([&] { make(repeated); }, {"triangle 4", "degenerate"});
 }
 
 TEST(TriangleSurface, RejectsDegenerateAndPinchedSurfaces) {
@@ -577,7 +544,7 @@ TEST(TriangleSurface, RejectsDegenerateAndPinchedSurfaces) {
   triangles[0] = {0, 2, 6};
   triangles.push_back({2, 4, 6});
   triangles.push_back({4, 0, 6});
-  expect_error([&] { TriangleSurface(vertices, triangles, "split.msh"); }, {"split.msh", "triangle 0", "degenerate"});
+  expect_invalid_argument([&] { TriangleSurface(vertices, triangles, "split.msh"); }, {"split.msh", "triangle 0", "degenerate"});
   vertices[6] = (vertices[0] + vertices[2] + vertices[4]) / 3;
   EXPECT_NO_THROW(TriangleSurface(vertices, triangles));
 
@@ -586,7 +553,7 @@ TEST(TriangleSurface, RejectsDegenerateAndPinchedSurfaces) {
   const std::vector<Vector3i> faces{{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
                                     {0, 4, 5}, {0, 6, 4}, {0, 5, 6}, {4, 6, 5}};
   EXPECT_NO_THROW(TriangleSurface(pinched, {faces.begin(), faces.begin() + 4}));
-  expect_error([&] { TriangleSurface(pinched, faces, "pinched"); }, {"pinched", "vertex 0", "non-manifold"});
+  expect_invalid_argument([&] { TriangleSurface(pinched, faces, "pinched"); }, {"pinched", "vertex 0", "non-manifold"});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -879,7 +846,7 @@ $EndElements
 )";
 
 TEST(TriangleSurfaceMsh, ReadsMsh41AndMsh22) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("triangle_surface");
   for (const char* content : {octahedron_v41, octahedron_v22}) {
     const std::string path = directory.file("octahedron.msh", content);
     const TriangleSurface all = TriangleSurface::from_msh(path);
@@ -892,7 +859,7 @@ TEST(TriangleSurfaceMsh, ReadsMsh41AndMsh22) {
     EXPECT_TRUE(named.contains({0.1, 0.1, 0.1}));
     EXPECT_FALSE(named.contains({0.5, 0.5, 0.5}));
     // One half is open: the error names the file and the gmsh element.
-    expect_error([&] { TriangleSurface::from_msh(path, {"top"}); }, {path, "hole", "gmsh element", "gmsh nodes"});
+    expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"top"}); }, {path, "hole", "gmsh element", "gmsh nodes"});
   }
   // In 2.2 an element's repeats for other groups are one triangle.
   const std::string path = directory.file("octahedron.msh", octahedron_v22);
@@ -905,82 +872,82 @@ TEST(TriangleSurfaceMsh, ReadsMsh41AndMsh22) {
 
 TEST(TriangleSurfaceMsh, GmshHemisphereGroupsSelectTriangles) {
   const std::string& path = benchmark_mesh(meshes::Benchmark::B2);
-  expect_error([&] { TriangleSurface::from_msh(path, {"free"}); }, {path, "not closed"});
-  expect_error([&] { TriangleSurface::from_msh(path, {"free", "liver"}); },
+  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"free"}); }, {path, "not closed"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"free", "liver"}); },
                {path, "'liver'", "available: base, tool_patch, free"});
   // "tissue" is a volume group, not a surface group.
-  expect_error([&] { TriangleSurface::from_msh(path, {"tissue"}); }, {path, "'tissue' is a 3-D group"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"tissue"}); }, {path, "'tissue' is a 3-D group"});
 }
 
 TEST(TriangleSurfaceMsh, RejectsBrokenFilesNamingThem) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("triangle_surface");
   const std::string missing = directory.path("missing.msh");
-  expect_error([&] { TriangleSurface::from_msh(missing); }, {missing, "cannot open"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(missing); }, {missing, "cannot open"});
 
   const std::string empty = directory.file("empty.msh", "");
-  expect_error([&] { TriangleSurface::from_msh(empty); }, {empty, "not a gmsh MSH file", "empty"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(empty); }, {empty, "not a gmsh MSH file", "empty"});
 
   const std::string garbage = directory.file("garbage.msh", "solid liver\n  facet normal 0 0 1\n");
-  expect_error([&] { TriangleSurface::from_msh(garbage); }, {garbage, "not a gmsh MSH file"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(garbage); }, {garbage, "not a gmsh MSH file"});
 
   std::string noise;
   std::mt19937 random(7);
   for (int i = 0; i < 4096; ++i) noise += static_cast<char>(random() & 0xff);
   const std::string bytes = directory.file("noise.msh", noise);
-  expect_error([&] { TriangleSurface::from_msh(bytes); }, {bytes, "not a gmsh MSH file"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(bytes); }, {bytes, "not a gmsh MSH file"});
 
   static constexpr char binary_header[] = "$MeshFormat\n4.1 1 8\n\x01\x00\x00\x00\n$EndMeshFormat\n";
   const std::string binary =
       directory.file("binary.msh", std::string(binary_header, sizeof binary_header - 1) + noise);
-  expect_error([&] { TriangleSurface::from_msh(binary); }, {binary, "binary", "ASCII"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(binary); }, {binary, "binary", "ASCII"});
 
   const std::string version = directory.file("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n");
-  expect_error([&] { TriangleSurface::from_msh(version); }, {version, "version 3"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(version); }, {version, "version 3"});
 
   const std::string v22(octahedron_v22);
   const std::string truncated = directory.file("truncated.msh", v22.substr(0, v22.find("14 2 2")));
-  expect_error([&] { TriangleSurface::from_msh(truncated); }, {truncated, "unexpected end of file", "$Elements"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(truncated); }, {truncated, "unexpected end of file", "$Elements"});
 
   std::string bad_number = v22;
   bad_number.replace(bad_number.find("30 0 1 0"), 8, "30 0 x 0");
   const std::string malformed = directory.file("malformed.msh", bad_number);
-  expect_error([&] { TriangleSurface::from_msh(malformed); }, {malformed, "line 15", "coordinate", "'x'"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(malformed); }, {malformed, "line 15", "coordinate", "'x'"});
 
   std::string short_section = v22;
   short_section.replace(short_section.find("$Nodes\n6"), 8, "$Nodes\n7");
   const std::string miscounted = directory.file("miscounted.msh", short_section);
-  expect_error([&] { TriangleSurface::from_msh(miscounted); }, {miscounted, "$Nodes"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(miscounted); }, {miscounted, "$Nodes"});
 
   std::string dangling = v22;
   dangling.replace(dangling.find("18 2 2 2 2 10 40 60"), 19, "18 2 2 2 2 10 40 99");
   const std::string missing_node = directory.file("dangling.msh", dangling);
-  expect_error([&] { TriangleSurface::from_msh(missing_node); }, {missing_node, "node 99"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(missing_node); }, {missing_node, "node 99"});
 
   const std::string no_triangles = directory.file("tet.msh",
                                                   "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
                                                   "3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n1\n1 4 2 1 1 1 2 3 4\n"
                                                   "$EndElements\n");
-  expect_error([&] { TriangleSurface::from_msh(no_triangles); }, {no_triangles, "no triangles"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(no_triangles); }, {no_triangles, "no triangles"});
 
   const std::string quadrangles = directory.file("quad.msh",
                                                  "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
                                                  "3 1 1 0\n4 0 1 0\n$EndNodes\n$Elements\n1\n5 3 2 1 1 1 2 3 4\n"
                                                  "$EndElements\n");
-  expect_error([&] { TriangleSurface::from_msh(quadrangles); }, {quadrangles, "element 5", "quadrangle"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(quadrangles); }, {quadrangles, "element 5", "quadrangle"});
 
   const std::string no_nodes = directory.file("no_nodes.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n");
-  expect_error([&] { TriangleSurface::from_msh(no_nodes); }, {no_nodes, "no $Nodes"});
+  expect_invalid_argument([&] { TriangleSurface::from_msh(no_nodes); }, {no_nodes, "no $Nodes"});
 
   // Prefixes of a real file: each fails with std::invalid_argument naming the file.
   const std::string hemisphere = read_file(benchmark_mesh(meshes::Benchmark::B2));
   for (std::size_t length = 0; length < hemisphere.size(); length += hemisphere.size() / 37 + 1) {
     const std::string prefix = directory.file("prefix.msh", hemisphere.substr(0, length));
-    expect_error([&] { TriangleSurface::from_msh(prefix); }, {prefix});
+    expect_invalid_argument([&] { TriangleSurface::from_msh(prefix); }, {prefix});
   }
 }
 
 TEST(TriangleSurfaceMsh, ReadMshSurfaceKeepsGmshLabelsWithoutValidating) {
-  const TemporaryDirectory directory;
+  const TemporaryDirectory directory("triangle_surface");
   const std::string path = directory.file("octahedron.msh", octahedron_v22);
   const SurfaceData top = read_msh_surface(path, {"top"});
   EXPECT_EQ(top.triangles.size(), 4u);

@@ -33,7 +33,7 @@ using testing::pole_contact;
 LocalModelSettings small_settings() {
   LocalModelSettings s;
   s.formulation = Formulation::collocation;
-  s.force.haptic_method = ForceMethod::traction_integral;
+  s.force.haptic_method = default_haptic_method(s.formulation, false);
   s.sprinkling.node_count = 60;
   s.force.energy = false;
   return s;

@@ -58,36 +58,74 @@ Eigen::Vector3d boussinesq(const Material& m, double force_N, const Eigen::Vecto
   return {radial * d.x(), radial * d.y(), -down};
 }
 
-struct Deflection {
-  double centre_m = 0, mean_m = 0;
-};
+/// σ(u) n of the Boussinesq field [Pa], its gradient by central differences.
+Eigen::Vector3d boussinesq_traction(const Material& m, double force_N, const Eigen::Vector3d& origin,
+                                    const Eigen::Vector3d& x, const Eigen::Vector3d& n) {
+  const double h = 1e-6;  // [m]: the field varies on the scale a = 2.5 mm
+  Eigen::Matrix3d g;
+  for (int k = 0; k < 3; ++k)
+    g.col(k) = (boussinesq(m, force_N, origin, x + h * Eigen::Vector3d::Unit(k)) -
+                boussinesq(m, force_N, origin, x - h * Eigen::Vector3d::Unit(k))) / (2 * h);
+  const Eigen::Matrix3d e = 0.5 * (g + g.transpose());
+  return (m.lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * e) * n;
+}
 
-/// Rows: pressure on the patch (half on the edge ring), traction-free elsewhere on the face,
-/// Boussinesq on the cut; solves and returns the downward deflection (positive).
-enum class Load { uniform_disk, point_force_above };
-
-Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
+/// The disk at the centre of the box's top face.
+ToolContact disk_contact() {
   ToolContact contact;
   contact.point = {0.5 * box_m, 0.5 * box_m, box_m};
   contact.radius_m = a_m;
+  return contact;
+}
+
+/// The local domain box ∩ ball(centre, L = 10a) sprinkled with N nodes.
+NodeCloud sprinkle_box(int node_count, double oversampling) {
   SprinklingSettings settings;
   settings.node_count = node_count;
   settings.local_radius_m = 10 * a_m;
   settings.oversampling = oversampling;
   settings.radius_factor = 3.0;
   settings.boundary_radius_factor = 3.6;
-  NodeCloud cloud = sprinkle_nodes(box(), contact, settings);
+  return sprinkle_nodes(box(), disk_contact(), settings);
+}
+
+struct Deflection {
+  double centre_m = 0, mean_m = 0;
+};
+
+/// The downward deflection of u_h (positive) at the disk's centre and averaged over the disk.
+Deflection measure_deflection(const NodeCloud& cloud, const Eigen::VectorXd& parameters, const MlsSettings& mls) {
+  const ToolContact contact = disk_contact();
+  Deflection w;
+  MlsEvaluation scratch;
+  Eigen::Vector3d u;
+  EXPECT_EQ(evaluate_displacement(cloud, parameters, contact.point, mls, scratch, u), MlsStatus::ok);
+  w.centre_m = -u.z();
+  const PatchQuadrature disk = patch_quadrature(box(), contact, 16, 32);
+  double area = 0;
+  for (std::size_t q = 0; q < disk.points.size(); ++q) {
+    EXPECT_EQ(evaluate_displacement(cloud, parameters, disk.points[q], mls, scratch, u), MlsStatus::ok);
+    w.mean_m -= disk.weights[q] * u.z();
+    area += disk.weights[q];
+  }
+  w.mean_m /= area;
+  return w;
+}
+
+/// Rows: pressure on the patch (half on the edge ring), traction-free elsewhere on the face,
+/// Boussinesq on the cut; solves and returns the downward deflection (positive).
+enum class Load { uniform_disk, point_force_above };
+
+Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
+  const ToolContact contact = disk_contact();
+  NodeCloud cloud = sprinkle_box(node_count, oversampling);
   const double force_N = pi * a_m * a_m * pressure_Pa;
   const auto load = [&](NodeKind kind, const Eigen::Vector3d& x, const Eigen::Vector3d& n,
                         std::array<CollocationRow, 3>& rows) {
     if (load_case == Load::point_force_above) {  // exact smooth solution: Boussinesq from a point a above the surface
       const Eigen::Vector3d origin = contact.point + Eigen::Vector3d(0, 0, a_m);
       const auto field = [&](const Eigen::Vector3d& y) { return boussinesq(m, force_N, origin, y); };
-      Eigen::Matrix3d g;
-      const double h = 1e-6;
-      for (int k = 0; k < 3; ++k) g.col(k) = (field(x + h * Eigen::Vector3d::Unit(k)) - field(x - h * Eigen::Vector3d::Unit(k))) / (2 * h);
-      const Eigen::Matrix3d e = 0.5 * (g + g.transpose());
-      const Eigen::Vector3d t = (m.lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * e) * n;
+      const Eigen::Vector3d t = boussinesq_traction(m, force_N, origin, x, n);
       for (int k = 0; k < 3; ++k) {
         rows[k].direction = Eigen::Vector3d::Unit(k);
         rows[k].tool.setZero();
@@ -124,43 +162,22 @@ Deflection solve(const Material& m, int node_count, double oversampling, Load lo
   Eigen::MatrixXd parameters;
   EXPECT_TRUE(solver.solve(system.constant_rhs, parameters).ok);
 
-  Deflection w;
-  MlsEvaluation scratch;
-  Eigen::Vector3d u;
-  EXPECT_EQ(evaluate_displacement(cloud, parameters.col(0), contact.point, collocation.mls, scratch, u), MlsStatus::ok);
-  w.centre_m = -u.z();
-  const PatchQuadrature disk = patch_quadrature(box(), contact, 16, 32);
-  double area = 0;
-  for (std::size_t q = 0; q < disk.points.size(); ++q) {
-    EXPECT_EQ(evaluate_displacement(cloud, parameters.col(0), disk.points[q], collocation.mls, scratch, u), MlsStatus::ok);
-    w.mean_m -= disk.weights[q] * u.z();
-    area += disk.weights[q];
-  }
-  w.mean_m /= area;
-  return w;
+  return measure_deflection(cloud, parameters.col(0), collocation.mls);
 }
 
 /// The same problems in the weak form (galerkin.hpp): the pressure is the load ∫ h_J t̄ dA on
 /// the disk, traction-free is natural, the cut's Boussinesq values are imposed like the cut's
 /// u = 0 of the punch (Nitsche or penalty).
 Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Constraint constraint) {
-  ToolContact contact;
-  contact.point = {0.5 * box_m, 0.5 * box_m, box_m};
-  contact.radius_m = a_m;
-  SprinklingSettings settings;
-  settings.node_count = node_count;
-  settings.local_radius_m = 10 * a_m;
-  settings.oversampling = 1;
-  settings.radius_factor = 3.0;
-  settings.boundary_radius_factor = 3.6;
-  const NodeCloud cloud = sprinkle_nodes(box(), contact, settings);
+  const ToolContact contact = disk_contact();
+  const NodeCloud cloud = sprinkle_box(node_count, 1);
   const double force_N = pi * a_m * a_m * pressure_Pa;
   const Eigen::Vector3d origin = contact.point + Eigen::Vector3d(0, 0, load_case == Load::point_force_above ? a_m : 0.0);
   const auto field = [&](const Eigen::Vector3d& y) { return boussinesq(m, force_N, origin, y); };
 
   GalerkinSettings galerkin;
   galerkin.constraint = constraint;
-  const double length = settings.local_radius_m;
+  const double length = 10 * a_m;
   const PatchQuadrature volume = volume_quadrature(box(), contact, length);
   const PatchQuadrature cut = cut_quadrature(box(), contact, length, 24, 48);
   // No tool: an empty patch quadrature leaves the patch to the load.
@@ -177,12 +194,7 @@ Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Con
       traction[q] = -pressure_Pa * loaded.normals[q];
       continue;
     }
-    Eigen::Matrix3d g;
-    const double h = 1e-7;
-    for (int k = 0; k < 3; ++k)
-      g.col(k) = (field(loaded.points[q] + h * Eigen::Vector3d::Unit(k)) - field(loaded.points[q] - h * Eigen::Vector3d::Unit(k))) / (2 * h);
-    const Eigen::Matrix3d e = 0.5 * (g + g.transpose());
-    traction[q] = (m.lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * e) * loaded.normals[q];
+    traction[q] = boussinesq_traction(m, force_N, origin, loaded.points[q], loaded.normals[q]);
   }
   std::vector<Eigen::Vector3d> cut_values(cut.points.size());
   for (std::size_t q = 0; q < cut.points.size(); ++q) cut_values[q] = field(cut.points[q]);
@@ -193,20 +205,7 @@ Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Con
   EXPECT_TRUE(ldlt.info() == Eigen::Success && ldlt.isPositive()) << "K is not positive definite";
   const Eigen::VectorXd parameters = ldlt.solve(pressure_load + cut_load);
 
-  Deflection w;
-  MlsEvaluation scratch;
-  Eigen::Vector3d u;
-  EXPECT_EQ(evaluate_displacement(cloud, parameters, contact.point, galerkin.mls, scratch, u), MlsStatus::ok);
-  w.centre_m = -u.z();
-  const PatchQuadrature disk = patch_quadrature(box(), contact, 16, 32);
-  double area = 0;
-  for (std::size_t q = 0; q < disk.points.size(); ++q) {
-    EXPECT_EQ(evaluate_displacement(cloud, parameters, disk.points[q], galerkin.mls, scratch, u), MlsStatus::ok);
-    w.mean_m -= disk.weights[q] * u.z();
-    area += disk.weights[q];
-  }
-  w.mean_m /= area;
-  return w;
+  return measure_deflection(cloud, parameters, galerkin.mls);
 }
 
 #ifdef TOUCHSTONE_GALERKIN_TESTS

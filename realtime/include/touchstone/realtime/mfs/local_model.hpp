@@ -79,6 +79,11 @@ struct LocalModelSettings {
 /// The paper-faithful setup of B4: 34 nodes, linear basis, one tip node, LU.
 LocalModelSettings paper_settings();
 
+/// The haptic force method that suits a formulation: the reaction for the weak form (its
+/// constraint force, which balances the cut exactly), the traction integral for collocation
+/// (whose reaction on the cut is off by hundreds of per cent), eq. 9 for the paper's model.
+ForceMethod default_haptic_method(Formulation formulation, bool paper_mode);
+
 /// Wall times of a build [s].
 struct BuildTimes {
   double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0, total_s = 0;
