@@ -14,6 +14,8 @@ packages=(
   libembree-dev
   # surface mesh readers (STL, OBJ, VTK, VTP) and the interactive window; OpenIGTLink devices
   libvtk9-dev libopenigtlink-dev
+  # a virtual display for the interactive window test (and headless screenshots)
+  xvfb xauth
   # configuration, command line, logging, JSON
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # tests, benchmarks, plots

@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
 # The default test run on a fresh Debian 12 machine: install, build, run every test not
-# labelled "large" or "open_acceptance" (ctest -L large / -L open_acceptance run those).
+# labelled "large" or "open_acceptance" (ctest -L large / -L open_acceptance run those), then
+# the threaded tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$(nproc)"
 ctest --preset release -j "$(nproc)" "$@"
+# The threaded tests again under ThreadSanitizer (issue 6, acceptance 4): only their targets.
+cmake --preset tsan >/dev/null
+cmake --build --preset tsan --target threaded_tests -j "$(nproc)"
+ctest --preset tsan-threaded -j "$(nproc)"

@@ -8,10 +8,13 @@
 #include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/studies/reference_study.hpp"
+#include "touchstone/studies/sim_scene.hpp"
 #include "touchstone/studies/study_runner.hpp"
 
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -278,6 +281,48 @@ int main(int argc, char** argv) {
       throw CLI::RuntimeError(1);
     }
     if (status != 0) throw CLI::RuntimeError(status);
+  });
+
+  // `touchstone sim <scene>`: the real-time runtime (issue 6) on real threads or, with
+  // --virtual, lock-step on a virtual clock (study mode). Ctrl-C ends the run cleanly (zero force).
+  std::string sim_scene_path, sim_output, sim_record, sim_replay, sim_screenshot;
+  double sim_duration = -1;
+  bool sim_virtual = false, sim_window = false, sim_no_window = false;
+  CLI::App* sim_cmd = app.add_subcommand(
+      "sim", "Run a scene: haptic (1 kHz), model (~200 Hz) and graphics (30 Hz) loops with a device, until the "
+             "trajectory ends, the device disconnects or Ctrl-C; prints and writes summary.json");
+  sim_cmd->add_option("scene", sim_scene_path, "Scene file (TOML), e.g. studies/scenes/palpation.toml")
+      ->required()->check(CLI::ExistingFile);
+  sim_cmd->add_option("--duration", sim_duration, "Run length [s] (overrides the scene; 0: until the device ends)");
+  sim_cmd->add_option("--out", sim_output, "Output folder (default: the scene's [output] directory)");
+  sim_cmd->add_option("--record", sim_record, "Record every tick's pose and force as CSV (replay with device.kind = \"replay\")");
+  sim_cmd->add_option("--replay", sim_replay, "Play a recording (from --record) instead of the scene's device")
+      ->check(CLI::ExistingFile);
+  sim_cmd->add_flag("--virtual", sim_virtual, "Study mode: lock-step on a virtual clock, bit-reproducible");
+  sim_cmd->add_flag("--window", sim_window, "Open the interactive VTK window (needs a display)");
+  sim_cmd->add_flag("--no-window", sim_no_window, "Do not open the window even if the scene asks for it");
+  sim_cmd->add_option("--screenshot", sim_screenshot, "PNG of the window at the end (relative to the output folder)");
+  sim_cmd->callback([&] {
+    try {
+      static std::atomic<bool> interrupted{false};
+      std::signal(SIGINT, [](int) { interrupted.store(true); });
+      std::signal(SIGTERM, [](int) { interrupted.store(true); });
+      const studies::SimScene scene = studies::read_sim_scene(sim_scene_path);
+      studies::SimOptions options;
+      if (sim_duration >= 0) options.duration_s = sim_duration;
+      if (!sim_output.empty()) options.output_directory = sim_output;
+      options.record_path = sim_record;
+      options.replay_path = sim_replay;
+      options.virtual_clock = sim_virtual;
+      if (sim_window) options.window = true;
+      if (sim_no_window) options.window = false;
+      options.screenshot_path = sim_screenshot;
+      options.stop = &interrupted;
+      studies::run_sim(scene, options);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
   });
 
   CLI11_PARSE(app, argc, argv);

@@ -466,6 +466,70 @@ void MfsStudy::validate() const {
   }
 }
 
+void read_local_model_sections(ConfigTable& config, mfs::LocalModelSettings& s) {
+  // Strong form at points (the paper) or weak form (De & Bathe's MFS), each with the haptic
+  // method that suits it unless [force] haptic_method says otherwise.
+  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, mfs::to_string(s.formulation)) == "galerkin"
+                      ? mfs::Formulation::galerkin
+                      : mfs::Formulation::collocation;
+  s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
+  if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
+  ConfigTable galerkin = config.table("galerkin");
+  s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
+  s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
+                              ? mfs::Constraint::nitsche
+                              : mfs::Constraint::penalty;
+
+  ConfigTable sprinkling = config.table("sprinkling");
+  mfs::SprinklingSettings& sp = s.sprinkling;
+  sp.layout = read_choice(sprinkling, "layout", layouts, sp.layout);
+  sp.ring_nodes = read_int(sprinkling, "ring_nodes", sp.ring_nodes);
+  sp.radius_factor = sprinkling.number("radius_factor", sp.radius_factor);
+  sp.boundary_radius_factor = sprinkling.number("boundary_radius_factor", sp.boundary_radius_factor);
+  sp.outer = read_choice(sprinkling, "outer", outer_conditions, sp.outer);
+  sp.oversampling = sprinkling.number("oversampling", sp.oversampling);
+  sp.tip_node_only = sprinkling.boolean("tip_node_only", sp.tip_node_only);
+  const std::int64_t seed = sprinkling.integer("seed", static_cast<std::int64_t>(sp.seed));
+  if (seed < 0) throw ConfigError(sprinkling.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
+  sp.seed = static_cast<std::uint64_t>(seed);
+
+  ConfigTable collocation = config.table("collocation");
+  s.collocation.scale_rows = collocation.boolean("scale_rows", s.collocation.scale_rows);
+  s.collocation.neumann_stabilization = collocation.number("neumann_stabilization", s.collocation.neumann_stabilization);
+  s.collocation.boundary_row_weight = collocation.number("boundary_row_weight", s.collocation.boundary_row_weight);
+
+  ConfigTable mls = config.table("mls");
+  mfs::MlsSettings& m = s.collocation.mls;
+  m.basis = read_choice(mls, "basis", bases, m.basis);
+  m.weight = read_choice(mls, "weight", weights, m.weight);
+  m.min_rcond = mls.number("min_rcond", m.min_rcond);
+  m.max_support_scale = mls.number("max_support_scale", m.max_support_scale);
+
+  ConfigTable solver = config.table("solver");
+  s.solver.kind = read_choice(solver, "kind", solver_kinds, s.solver.kind);
+  s.solver.gmres_tolerance = solver.number("gmres_tolerance", s.solver.gmres_tolerance);
+  s.solver.gmres_restart = read_int(solver, "gmres_restart", s.solver.gmres_restart);
+  s.solver.gmres_max_iterations = read_int(solver, "gmres_max_iterations", s.solver.gmres_max_iterations);
+  s.solver.max_relative_residual = solver.number("max_relative_residual", s.solver.max_relative_residual);
+  s.solver.ilut_drop_tolerance = solver.number("ilut_drop_tolerance", s.solver.ilut_drop_tolerance);
+  s.solver.ilut_fill_factor = read_int(solver, "ilut_fill_factor", s.solver.ilut_fill_factor);
+
+  ConfigTable force = config.table("force");
+  mfs::ForceSettings& f = s.force;
+  f.patch_radial_points = read_int(force, "patch_radial_points", f.patch_radial_points);
+  f.patch_angular_points = read_int(force, "patch_angular_points", f.patch_angular_points);
+  f.cut_polar_points = read_int(force, "cut_polar_points", f.cut_polar_points);
+  f.cut_azimuth_points = read_int(force, "cut_azimuth_points", f.cut_azimuth_points);
+  f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
+  f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
+  f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
+  // Unset, the haptic method follows the formulation (set above).
+  f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
+  f.reaction = force.boolean("reaction", f.reaction);
+  f.energy = force.boolean("energy", f.energy);
+
+}
+
 MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory) {
   MfsStudy study;
   study.name = config.string("study", study.name);
@@ -480,18 +544,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   mfs::LocalModelSettings& s = study.model;
   s = paper_mode ? mfs::paper_settings() : mfs::LocalModelSettings{};
   s.paper_mode = paper_mode;
-  // Strong form at points (the paper) or weak form (De & Bathe's MFS), each with the haptic
-  // method that suits it unless [force] haptic_method says otherwise.
-  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, mfs::to_string(s.formulation)) == "galerkin"
-                      ? mfs::Formulation::galerkin
-                      : mfs::Formulation::collocation;
-  s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
-  if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
-  ConfigTable galerkin = config.table("galerkin");
-  s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
-  s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
-                              ? mfs::Constraint::nitsche
-                              : mfs::Constraint::penalty;
+  read_local_model_sections(config, s);
 
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
@@ -550,52 +603,6 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
     throw ConfigError(sprinkling.where("local_radius") + " = " + format_number(sp.local_radius_m) +
                       " m differs from geometry.local_radius = " + format_number(geometry_l) + " m; keep one");
   g.local_radius_m = sp.local_radius_m;
-  sp.layout = read_choice(sprinkling, "layout", layouts, sp.layout);
-  sp.ring_nodes = read_int(sprinkling, "ring_nodes", sp.ring_nodes);
-  sp.radius_factor = sprinkling.number("radius_factor", sp.radius_factor);
-  sp.boundary_radius_factor = sprinkling.number("boundary_radius_factor", sp.boundary_radius_factor);
-  sp.outer = read_choice(sprinkling, "outer", outer_conditions, sp.outer);
-  sp.oversampling = sprinkling.number("oversampling", sp.oversampling);
-  sp.tip_node_only = sprinkling.boolean("tip_node_only", sp.tip_node_only);
-  const std::int64_t seed = sprinkling.integer("seed", static_cast<std::int64_t>(sp.seed));
-  if (seed < 0) throw ConfigError(sprinkling.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
-  sp.seed = static_cast<std::uint64_t>(seed);
-
-  ConfigTable collocation = config.table("collocation");
-  s.collocation.scale_rows = collocation.boolean("scale_rows", s.collocation.scale_rows);
-  s.collocation.neumann_stabilization = collocation.number("neumann_stabilization", s.collocation.neumann_stabilization);
-  s.collocation.boundary_row_weight = collocation.number("boundary_row_weight", s.collocation.boundary_row_weight);
-
-  ConfigTable mls = config.table("mls");
-  mfs::MlsSettings& m = s.collocation.mls;
-  m.basis = read_choice(mls, "basis", bases, m.basis);
-  m.weight = read_choice(mls, "weight", weights, m.weight);
-  m.min_rcond = mls.number("min_rcond", m.min_rcond);
-  m.max_support_scale = mls.number("max_support_scale", m.max_support_scale);
-
-  ConfigTable solver = config.table("solver");
-  s.solver.kind = read_choice(solver, "kind", solver_kinds, s.solver.kind);
-  s.solver.gmres_tolerance = solver.number("gmres_tolerance", s.solver.gmres_tolerance);
-  s.solver.gmres_restart = read_int(solver, "gmres_restart", s.solver.gmres_restart);
-  s.solver.gmres_max_iterations = read_int(solver, "gmres_max_iterations", s.solver.gmres_max_iterations);
-  s.solver.max_relative_residual = solver.number("max_relative_residual", s.solver.max_relative_residual);
-  s.solver.ilut_drop_tolerance = solver.number("ilut_drop_tolerance", s.solver.ilut_drop_tolerance);
-  s.solver.ilut_fill_factor = read_int(solver, "ilut_fill_factor", s.solver.ilut_fill_factor);
-
-  ConfigTable force = config.table("force");
-  mfs::ForceSettings& f = s.force;
-  f.patch_radial_points = read_int(force, "patch_radial_points", f.patch_radial_points);
-  f.patch_angular_points = read_int(force, "patch_angular_points", f.patch_angular_points);
-  f.cut_polar_points = read_int(force, "cut_polar_points", f.cut_polar_points);
-  f.cut_azimuth_points = read_int(force, "cut_azimuth_points", f.cut_azimuth_points);
-  f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
-  f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
-  f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
-  // Unset, the haptic method follows the formulation (set above).
-  f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
-  f.reaction = force.boolean("reaction", f.reaction);
-  f.energy = force.boolean("energy", f.energy);
-
   ConfigTable output = config.table("output");
   study.write_vtu = output.boolean("vtu", study.write_vtu);
 

@@ -46,6 +46,12 @@ struct MfsStudy {
   void validate() const;
 };
 
+/// Reads the engine's sections of `config` into `settings` (its current values are the
+/// defaults): `formulation` and the tables [galerkin], [sprinkling] (all but node_count and
+/// local_radius, which the caller reads), [collocation], [mls], [solver], [force]. Shared by
+/// `touchstone mfs` studies and `touchstone sim` scenes.
+void read_local_model_sections(ConfigTable& config, realtime::mfs::LocalModelSettings& settings);
+
 /// Reads a study; every key is checked (unknown keys are errors naming the file and key), and
 /// invalid values end in a ConfigError naming the file and the field. A relative
 /// `surface` path is taken relative to `config_directory`. With `paper_mode = true` the

@@ -1,0 +1,72 @@
+#pragma once
+/// @file
+/// The scripted hand of the palpation demo (paper §6, DESIGN.md §7): at each site on the organ
+/// the tool approaches along the normal, presses, holds, slides along the surface, holds and
+/// releases, then lifts and moves to the next site — minimum-jerk segments (smooth hand motion
+/// below 10 Hz, as the collision issue's approach trajectories) with physiological tremor on
+/// top (collision/tremor_model.hpp), sampled at the haptic rate. Deterministic for a seed.
+
+#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace touchstone::realtime::haptics {
+
+struct PalpationSettings {
+  /// Points near the organ; each is projected to the surface to give a site. Empty: the
+  /// topmost vertex (largest z) and `generated_sites − 1` random sites within `site_spread_m`
+  /// of it, projected.
+  std::vector<Eigen::Vector3d> sites;
+  int generated_sites = 4;
+  double site_spread_m = 0.015;
+  /// Total length of the trajectory [s]: palpations repeat over the sites until the next one
+  /// would not fit; the remaining time is spent at rest above the last site.
+  double duration_s = 60.0;
+  double hover_m = 0.008;         ///< start and end of a palpation, above the site along its normal
+  double press_depth_m = 0.003;   ///< below the surface at the site, along the normal
+  double slide_m = 0.004;         ///< along the surface while pressed (0: no slide)
+  double approach_s = 0.8, hold_s = 0.5, slide_s = 1.0, release_s = 0.8, rest_s = 0.4;
+  /// Between sites the tool lifts this far above the site, moves over and descends [m, s].
+  double lift_m = 0.02;
+  double transfer_s = 1.2;
+  double sample_rate_hz = 1000.0;
+  /// Tremor on top of the smooth motion; its sample rate is set to sample_rate_hz and its seed
+  /// derived from `seed`. rms_per_axis_m = 0: none.
+  collision::TremorSettings tremor;
+  std::uint64_t seed = 1;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+enum class PalpationPhase : std::uint8_t { rest, approach, hold, slide, release, transfer };
+const char* to_string(PalpationPhase phase);
+
+/// A run of samples in one phase (sample k is at time k / sample_rate_hz).
+struct PalpationSegment {
+  PalpationPhase phase = PalpationPhase::rest;
+  int site = 0;
+  int begin = 0, end = 0;  ///< [begin, end)
+};
+
+struct PalpationTrajectory {
+  std::vector<Eigen::Vector3d> smooth;     ///< hand motion [m]
+  std::vector<Eigen::Vector3d> tip;        ///< smooth + tremor: what the device reports [m]
+  std::vector<Eigen::Vector3d> tool_axis;  ///< unit, from the tip along the shaft
+  std::vector<Eigen::Vector3d> site_points, site_normals;  ///< on the surface; outward
+  std::vector<PalpationSegment> segments;
+  double sample_period_s = 1e-3;
+  int palpations = 0;
+};
+
+/// Builds the trajectory. Throws std::invalid_argument on invalid settings, and
+/// std::runtime_error naming the sites when a transfer would pass through the organ (raise
+/// lift_m) or when not even one palpation fits in duration_s.
+PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& organ,
+                                              const PalpationSettings& settings);
+
+}  // namespace touchstone::realtime::haptics

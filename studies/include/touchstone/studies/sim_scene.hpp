@@ -1,0 +1,75 @@
+#pragma once
+/// @file
+/// `touchstone sim <scene.toml>`: the real-time runtime (DESIGN.md §7) on a scene — an organ, a
+/// material, the MFS settings, a tool, a device, rates, a force mode, safety limits and outputs
+/// — run on real threads until the trajectory ends, the device disconnects or Ctrl-C, or in
+/// study mode on a virtual clock. Writes summary.json and prints the run summary.
+
+#include "touchstone/meshes/organ_geometry.hpp"
+#include "touchstone/realtime/haptics/palpation_trajectory.hpp"
+#include "touchstone/realtime/runtime/simulation.hpp"
+#include "touchstone/studies/config_reader.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <optional>
+#include <string>
+
+namespace touchstone::studies {
+
+enum class DeviceKind { none, scripted, replay, openigtlink, openhaptics };
+std::string to_string(DeviceKind kind);
+
+struct SimScene {
+  std::string name = "scene";
+  std::string config_path;
+  /// The organ: a surface file, or (empty) a generated shape.
+  std::string surface_path;
+  meshes::OrganParameters generated_organ;
+  realtime::runtime::SceneSettings settings;
+
+  DeviceKind device = DeviceKind::scripted;
+  double device_max_force_N = 3.3;  ///< the device's own limit (Phantom Omni: 3.3 N)
+  realtime::haptics::PalpationSettings palpation;  ///< scripted
+  std::string replay_path;                          ///< replay
+  int igtl_port = 18944;                            ///< openigtlink
+  double igtl_length_unit_m = 0.001;
+  std::string openhaptics_device_name = "Default Device";
+
+  std::string output_directory = "output/sim";
+  bool write_time_series = true;  ///< ParaView PVD/VTP
+  int time_series_frame_stride = 6;
+  bool window = false;            ///< interactive VTK window (needs a display)
+  std::string screenshot_path;    ///< PNG of the window at the end (relative to the output directory)
+  bool igtl_polydata = true;      ///< openigtlink: send the deformed organ at the graphics rate
+  bool write_force_history = false;  ///< forces.csv, one line per haptic tick (study mode: always)
+};
+
+/// Reads a scene; unknown keys are errors naming the file and key. Relative paths are taken
+/// relative to the scene file's folder (the output directory relative to the working directory).
+SimScene read_sim_scene(const std::string& path);
+
+struct SimOptions {
+  std::optional<double> duration_s;    ///< overrides the scene's
+  std::optional<std::string> output_directory;
+  std::string record_path;             ///< CSV of every tick's pose and force (replayable)
+  std::string replay_path;             ///< plays this recording instead of the scene's device
+  bool virtual_clock = false;          ///< study mode: lock-step, bit-reproducible
+  std::optional<bool> window;          ///< overrides the scene's
+  std::string screenshot_path;         ///< overrides the scene's
+  const std::atomic<bool>* stop = nullptr;  ///< Ctrl-C
+  bool print = true;
+};
+
+/// Runs the scene and writes <out>/summary.json (and forces.csv, the time series, the
+/// recording). Returns the summary document.
+nlohmann::json run_sim(const SimScene& scene, const SimOptions& options);
+
+/// The run summary as JSON (the loops, safety, prediction and work counters, force statistics).
+nlohmann::json summary_json(const realtime::runtime::RunSummary& summary);
+
+/// The run summary as a few lines of text.
+std::string summary_text(const realtime::runtime::RunSummary& summary);
+
+}  // namespace touchstone::studies

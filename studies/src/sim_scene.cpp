@@ -1,0 +1,485 @@
+#include "touchstone/studies/sim_scene.hpp"
+
+#include "touchstone/meshes/surface_mesh_io.hpp"
+#include "touchstone/realtime/haptics/device_recorder.hpp"
+#include "touchstone/realtime/haptics/replay_device.hpp"
+#include "touchstone/realtime/haptics/scripted_device.hpp"
+#include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/provenance.hpp"
+#ifdef TOUCHSTONE_HAVE_VTK
+#include "touchstone/realtime/graphics/interactive_window.hpp"
+#include "touchstone/realtime/graphics/vtk_time_series.hpp"
+#endif
+#ifdef TOUCHSTONE_HAVE_OPENIGTLINK
+#include "touchstone/realtime/haptics/openigtlink_device.hpp"
+#endif
+#ifdef TOUCHSTONE_HAVE_OPENHAPTICS
+#include "touchstone/realtime/haptics/openhaptics_device.hpp"
+#endif
+
+#include <chrono>
+#include <climits>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+namespace touchstone::studies {
+namespace fs = std::filesystem;
+namespace rt = realtime::runtime;
+namespace haptics = realtime::haptics;
+using nlohmann::json;
+
+namespace {
+
+int read_int(ConfigTable& table, const std::string& key, int default_value) {
+  const std::int64_t value = table.integer(key, default_value);
+  if (value < INT32_MIN || value > INT32_MAX) throw ConfigError(table.where(key) + ": " + std::to_string(value) + " is out of range");
+  return static_cast<int>(value);
+}
+
+std::uint64_t read_seed(ConfigTable& table, const std::string& key, std::uint64_t default_value) {
+  const std::int64_t value = table.integer(key, static_cast<std::int64_t>(default_value));
+  if (value < 0) throw ConfigError(table.where(key) + ": " + std::to_string(value) + " must be >= 0");
+  return static_cast<std::uint64_t>(value);
+}
+
+std::string relative_to(const std::string& directory, const std::string& path) {
+  if (path.empty()) return path;
+  fs::path p(path);
+  if (p.is_relative()) p = fs::path(directory) / p;
+  return p.lexically_normal().string();
+}
+
+void read_palpation(ConfigTable& table, haptics::PalpationSettings& p) {
+  // Sites as site0, site1, … = [x, y, z] (lengths), in order; none: generated around the top.
+  for (int i = 0; i < 16; ++i) {
+    const std::string key = "site" + std::to_string(i);
+    if (!table.has(key)) break;
+    const auto v = table.vector3(key, Dimension::length, {{0, 0, 0}});
+    p.sites.emplace_back(v[0], v[1], v[2]);
+  }
+  p.generated_sites = read_int(table, "generated_sites", p.generated_sites);
+  p.site_spread_m = table.quantity("site_spread", Dimension::length, p.site_spread_m);
+  p.hover_m = table.quantity("hover", Dimension::length, p.hover_m);
+  p.press_depth_m = table.quantity("press_depth", Dimension::length, p.press_depth_m);
+  p.slide_m = table.quantity("slide", Dimension::length, p.slide_m);
+  p.approach_s = table.quantity("approach", Dimension::time, p.approach_s);
+  p.hold_s = table.quantity("hold", Dimension::time, p.hold_s);
+  p.slide_s = table.quantity("slide_time", Dimension::time, p.slide_s);
+  p.release_s = table.quantity("release", Dimension::time, p.release_s);
+  p.rest_s = table.quantity("rest", Dimension::time, p.rest_s);
+  p.lift_m = table.quantity("lift", Dimension::length, p.lift_m);
+  p.transfer_s = table.quantity("transfer", Dimension::time, p.transfer_s);
+  p.tremor.rms_per_axis_m = table.quantity("tremor_rms", Dimension::length, p.tremor.rms_per_axis_m);
+  p.seed = read_seed(table, "seed", p.seed);
+}
+
+}  // namespace
+
+std::string to_string(DeviceKind kind) {
+  switch (kind) {
+    case DeviceKind::none: return "none";
+    case DeviceKind::scripted: return "scripted";
+    case DeviceKind::replay: return "replay";
+    case DeviceKind::openigtlink: return "openigtlink";
+    case DeviceKind::openhaptics: return "openhaptics";
+  }
+  return "?";
+}
+
+SimScene read_sim_scene(const std::string& path) {
+  ConfigTable config = ConfigTable::from_file(path);
+  const std::string directory = fs::path(path).parent_path().string();
+  SimScene scene;
+  scene.config_path = path;
+  rt::SceneSettings& s = scene.settings;
+  scene.name = config.string("scene", scene.name);
+  s.duration_s = config.quantity("duration", Dimension::time, 60.0);
+  s.force_mode = config.choice("force_mode", {"stiffness", "extrapolation"}, "stiffness") == "extrapolation"
+                     ? rt::ForceMode::extrapolation
+                     : rt::ForceMode::stiffness;
+
+  ConfigTable organ = config.table("organ");
+  scene.surface_path = relative_to(directory, organ.string("surface", ""));
+  if (!scene.surface_path.empty() && !fs::is_regular_file(scene.surface_path))
+    throw ConfigError(organ.where("surface") + ": no such file '" + scene.surface_path + "'");
+  scene.generated_organ.shape = meshes::organ_shape_from_string(organ.choice("shape", {"stomach", "hemisphere"}, "stomach"));
+  scene.generated_organ.target_triangles = read_int(organ, "triangles", 20000);
+  scene.generated_organ.hemisphere_radius_m = organ.quantity("hemisphere_radius", Dimension::length, 0.05);
+
+  ConfigTable material = config.table("material");
+  s.material.youngs_modulus_Pa = material.quantity("youngs_modulus", Dimension::pressure, 10e3);
+  s.material.poisson_ratio = material.number("poisson_ratio", 0.45);
+
+  ConfigTable tool = config.table("tool");
+  s.tool.tip_radius_m = tool.quantity("tip_radius", Dimension::length, s.tool.tip_radius_m);
+  s.tool.shaft_length_m = tool.quantity("shaft_length", Dimension::length, s.tool.shaft_length_m);
+  s.tool.shaft_radius_m = tool.quantity("shaft_radius", Dimension::length, s.tool.shaft_radius_m);
+  s.tool.condition = tool.choice("contact", {"frictionless", "bonded"}, "frictionless") == "bonded"
+                         ? realtime::mfs::PatchCondition::bonded
+                         : realtime::mfs::PatchCondition::frictionless;
+
+  // The engine: the same sections as `touchstone mfs`, under [model]. The energy extraction is
+  // a study quantity (a volume quadrature per solve): off unless asked for.
+  ConfigTable model = config.table("model");
+  s.model.force.energy = false;
+  read_local_model_sections(model, s.model);
+  ConfigTable sprinkling = model.table("sprinkling");
+  s.model.sprinkling.node_count = read_int(sprinkling, "node_count", 60);
+  s.model.sprinkling.local_radius_m = sprinkling.quantity("local_radius", Dimension::length, 5 * s.tool.tip_radius_m);
+
+  ConfigTable device = config.table("device");
+  const std::string kind = device.choice("kind", {"none", "scripted", "replay", "openigtlink", "openhaptics"}, "scripted");
+  for (DeviceKind k : {DeviceKind::none, DeviceKind::scripted, DeviceKind::replay, DeviceKind::openigtlink, DeviceKind::openhaptics})
+    if (to_string(k) == kind) scene.device = k;
+  scene.device_max_force_N = device.quantity("max_force", Dimension::force, scene.device_max_force_N);
+  ConfigTable scripted = device.table("scripted");
+  read_palpation(scripted, scene.palpation);
+  ConfigTable replay = device.table("replay");
+  scene.replay_path = relative_to(directory, replay.string("file", ""));
+  if (scene.device == DeviceKind::replay && scene.replay_path.empty())
+    throw ConfigError(replay.where("file") + ": the replay device needs a recording (touchstone sim --record)");
+  ConfigTable igtl = device.table("openigtlink");
+  scene.igtl_port = read_int(igtl, "port", scene.igtl_port);
+  scene.igtl_length_unit_m = igtl.quantity("length_unit", Dimension::length, scene.igtl_length_unit_m);
+  ConfigTable openhaptics = device.table("openhaptics");
+  scene.openhaptics_device_name = openhaptics.string("name", scene.openhaptics_device_name);
+
+  ConfigTable rates = config.table("rates");
+  s.rates.haptic_hz = rates.number("haptic_hz", s.rates.haptic_hz);
+  s.rates.model_hz = rates.number("model_hz", s.rates.model_hz);
+  s.rates.graphics_hz = rates.number("graphics_hz", s.rates.graphics_hz);
+  s.prediction.cycle_period_s = 1.0 / s.rates.haptic_hz;
+
+  ConfigTable contact = config.table("contact");
+  s.contact.keep_fraction = contact.number("keep_fraction", s.contact.keep_fraction);
+  s.contact.usable_fraction = contact.number("usable_fraction", s.contact.usable_fraction);
+  s.contact.crossfade_s = contact.quantity("crossfade", Dimension::time, s.contact.crossfade_s);
+  s.contact.prebuild_on_prediction = contact.boolean("prebuild_on_prediction", s.contact.prebuild_on_prediction);
+  s.contact.prebuild_horizon_s = contact.quantity("prebuild_horizon", Dimension::time, s.contact.prebuild_horizon_s);
+  s.contact.extrapolation_horizon_s = contact.quantity("extrapolation_horizon", Dimension::time, s.contact.extrapolation_horizon_s);
+
+  ConfigTable safety = config.table("safety");
+  s.safety.max_force_N = safety.quantity("max_force", Dimension::force, s.safety.max_force_N);
+  s.safety.max_rate_N_per_s = safety.number("max_rate_N_per_s", s.safety.max_rate_N_per_s);
+  s.safety.stale_after_s = safety.quantity("stale_after", Dimension::time, s.safety.stale_after_s);
+
+  ConfigTable prediction = config.table("prediction");
+  s.prediction.window_samples = read_int(prediction, "window_samples", s.prediction.window_samples);
+  s.prediction.sample_period_cycles = read_int(prediction, "sample_period_cycles", s.prediction.sample_period_cycles);
+  s.prediction.straight_line_range_m = prediction.quantity("straight_line_range", Dimension::length, s.prediction.straight_line_range_m);
+  s.prediction.margin_m = prediction.quantity("margin", Dimension::length, s.prediction.margin_m);
+
+  ConfigTable timing = config.table("timing");
+  s.timing.spin_tail_s = timing.quantity("spin_tail", Dimension::time, s.timing.spin_tail_s);
+  s.timing.request_fifo = timing.boolean("fifo", s.timing.request_fifo);
+  s.timing.fifo_priority = read_int(timing, "fifo_priority", s.timing.fifo_priority);
+  s.timing.late_threshold_s = timing.quantity("late_threshold", Dimension::time, s.timing.late_threshold_s);
+
+  ConfigTable output = config.table("output");
+  scene.output_directory = output.string("directory", "output/" + scene.name);
+  scene.write_time_series = output.boolean("time_series", scene.write_time_series);
+  scene.time_series_frame_stride = read_int(output, "frame_stride", scene.time_series_frame_stride);
+  scene.window = output.boolean("window", scene.window);
+  scene.screenshot_path = output.string("screenshot", scene.screenshot_path);
+  scene.igtl_polydata = output.boolean("openigtlink_polydata", scene.igtl_polydata);
+  scene.write_force_history = output.boolean("force_history", scene.write_force_history);
+
+  config.finish();
+  try {
+    s.validate();
+    scene.palpation.validate();
+    scene.generated_organ.validate();
+    if (!(scene.device_max_force_N > 0)) throw std::invalid_argument("device.max_force must be > 0");
+    if (scene.time_series_frame_stride < 1) throw std::invalid_argument("output.frame_stride must be >= 1");
+  } catch (const std::invalid_argument& error) {
+    throw ConfigError(path + ": " + error.what());
+  }
+  return scene;
+}
+
+json summary_json(const rt::RunSummary& r) {
+  const auto loop = [](const rt::LoopStatistics& l) {
+    return json{{"period_s", l.period_s},          {"ticks", l.ticks},
+                {"lateness_p50_s", l.lateness_p50_s}, {"lateness_p99_s", l.lateness_p99_s},
+                {"lateness_max_s", l.lateness_max_s}, {"late_ticks", l.late_ticks},
+                {"late_threshold_s", l.late_threshold_s}, {"late_fraction", l.ticks ? double(l.late_ticks) / l.ticks : 0.0},
+                {"skipped_deadlines", l.skipped_deadlines}, {"work_p50_s", l.work_p50_s},
+                {"work_p99_s", l.work_p99_s},         {"work_max_s", l.work_max_s}};
+  };
+  const auto& p = r.prediction;
+  const auto& w = r.work;
+  const auto& f = r.forces;
+  return json{
+      {"device", r.device},
+      {"clock", r.virtual_clock ? "virtual" : "real"},
+      {"duration_s", r.duration_s},
+      {"end_reason", r.end_reason},
+      {"force_mode", rt::to_string(r.force_mode)},
+      {"loops", {{"haptic", loop(r.haptic)}, {"model", loop(r.model)}, {"graphics", loop(r.graphics)}}},
+      {"haptic_thread", {{"fifo", r.haptic_thread.fifo}, {"timer_slack_set", r.haptic_thread.timer_slack_set}, {"note", r.haptic_thread.note}}},
+      {"safety",
+       {{"ticks", r.safety.ticks}, {"interventions", r.safety.interventions()}, {"non_finite", r.safety.non_finite},
+        {"stale", r.safety.stale}, {"clamped", r.safety.clamped}, {"rate_limited", r.safety.rate_limited},
+        {"disconnect_zero", r.safety.disconnect_zero}}},
+      {"prediction",
+       {{"cycles", p.cycles}, {"cheap_checks", p.cheap_checks}, {"corridor_advances", p.corridor_advances},
+        {"predictions", p.predictions}, {"repredictions", p.repredictions()}, {"handovers", p.handovers},
+        {"full_detections", p.full_detections}, {"closest_point_queries", p.closest_point_queries},
+        {"ray_casts", p.ray_casts}, {"contacts", p.contacts}, {"box_tests", p.queries.box_tests},
+        {"triangle_tests", p.queries.triangle_tests}}},
+      {"work",
+       {{"haptic_ticks", w.haptic_ticks}, {"free_ticks", w.free_ticks}, {"contact_ticks", w.contact_ticks},
+        {"hierarchy_queries", w.hierarchy_queries}, {"model_steps", w.model_steps},
+        {"model_idle_steps", w.model_idle_steps}, {"model_builds", w.model_builds},
+        {"model_prebuilds", w.model_prebuilds}, {"model_resprinkles", w.model_resprinkles},
+        {"model_build_failures", w.model_build_failures}, {"model_forces", w.model_forces}, {"contacts", w.contacts},
+        {"contacts_with_model_ready", w.contacts_with_model_ready}, {"graphics_frames", w.graphics_frames},
+        {"surface_updates", w.surface_updates}, {"vertices_written", w.vertices_written},
+        {"organ_vertices", w.organ_vertices}, {"sink_errors", w.sink_errors}}},
+      {"forces",
+       {{"max_force_N", f.max_force_N}, {"extrapolation_error_rms_N", f.extrapolation_error_rms_N},
+        {"extrapolation_error_max_N", f.extrapolation_error_max_N}, {"compared_ticks", f.compared_ticks},
+        {"model_switches", f.model_switches}, {"switch_jump_max_N", f.switch_jump_max_N},
+        {"switch_jump_mean_N", f.switch_jump_mean_N}, {"crossfade_step_max_N", f.crossfade_step_max_N},
+        {"late_model_fade_ins", f.late_model_fade_ins},
+        {"extrapolation_updates", f.extrapolation_updates},
+        {"extrapolation_update_step_max_N", f.extrapolation_update_step_max_N},
+        {"extrapolation_update_step_mean_N", f.extrapolation_update_step_mean_N},
+        {"output_step_max_N", f.output_step_max_N}, {"model_latency_p50_s", f.model_latency_p50_s},
+        {"model_latency_max_s", f.model_latency_max_s}, {"model_latency_samples", f.model_latency_samples},
+        {"build_p50_s", f.build_p50_s}, {"build_max_s", f.build_max_s}}},
+      {"notes", r.notes},
+  };
+}
+
+std::string summary_text(const rt::RunSummary& r) {
+  std::ostringstream out;
+  char line[512];
+  std::snprintf(line, sizeof line, "run: %s clock, device %s, %.2f s, ended: %s, force mode %s\n",
+                r.virtual_clock ? "virtual" : "real", r.device.c_str(), r.duration_s, r.end_reason.c_str(),
+                rt::to_string(r.force_mode));
+  out << line;
+  for (const rt::LoopStatistics* l : {&r.haptic, &r.model, &r.graphics}) {
+    if (l->ticks == 0) {
+      out << "  " << l->name << ": not run\n";
+      continue;
+    }
+    std::snprintf(line, sizeof line,
+                  "  %-8s %7lld ticks  lateness p50 %7.1f us  p99 %7.1f us  max %8.1f us  late(>%.1f ms) %lld (%.3f %%)  "
+                  "skipped %lld  work p50 %.1f us p99 %.1f us\n",
+                  l->name.c_str(), l->ticks, l->lateness_p50_s * 1e6, l->lateness_p99_s * 1e6, l->lateness_max_s * 1e6,
+                  l->late_threshold_s * 1e3, l->late_ticks, 100.0 * l->late_ticks / l->ticks, l->skipped_deadlines,
+                  l->work_p50_s * 1e6, l->work_p99_s * 1e6);
+    out << line;
+  }
+  out << "  haptic thread: " << r.haptic_thread.note << "\n";
+  const auto& s = r.safety;
+  std::snprintf(line, sizeof line,
+                "  safety: %lld interventions (non-finite %lld, stale %lld, clamped %lld, rate-limited %lld), "
+                "disconnect zeros %lld\n",
+                s.interventions(), s.non_finite, s.stale, s.clamped, s.rate_limited, s.disconnect_zero);
+  out << line;
+  const auto& w = r.work;
+  std::snprintf(line, sizeof line,
+                "  work: %lld contacts (%lld with the model ready), %lld contact ticks, %lld hierarchy queries in %lld "
+                "free ticks; model: %lld steps, %lld idle, %lld builds (%lld before contact, %lld re-sprinkles, %lld failed)\n",
+                w.contacts, w.contacts_with_model_ready, w.contact_ticks, w.hierarchy_queries, w.free_ticks,
+                w.model_steps, w.model_idle_steps, w.model_builds, w.model_prebuilds, w.model_resprinkles,
+                w.model_build_failures);
+  out << line;
+  std::snprintf(line, sizeof line, "  graphics: %lld frames, %lld surface updates, %lld vertex writes (organ: %lld vertices)\n",
+                w.graphics_frames, w.surface_updates, w.vertices_written, w.organ_vertices);
+  out << line;
+  const auto& f = r.forces;
+  std::snprintf(line, sizeof line,
+                "  force: max %.4f N; extrapolation vs exact: rms %.3g N, max %.3g N over %lld ticks; model switches "
+                "%lld (jump max %.3g N, cross-fade step max %.3g N), late models faded in %lld; output step max %.3g N\n",
+                f.max_force_N, f.extrapolation_error_rms_N, f.extrapolation_error_max_N, f.compared_ticks, f.model_switches,
+                f.switch_jump_max_N, f.crossfade_step_max_N, f.late_model_fade_ins, f.output_step_max_N);
+  out << line;
+  std::snprintf(line, sizeof line,
+                "  model latency after contact: p50 %.1f ms, max %.1f ms (%lld contacts); build p50 %.1f ms, max %.1f ms\n",
+                f.model_latency_p50_s * 1e3, f.model_latency_max_s * 1e3, f.model_latency_samples, f.build_p50_s * 1e3,
+                f.build_max_s * 1e3);
+  out << line;
+  for (const auto& note : r.notes) out << "  note: " << note << "\n";
+  return out.str();
+}
+
+namespace {
+
+realtime::geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
+  if (!scene.surface_path.empty()) return meshes::load_surface(scene.surface_path);
+  // Generated shapes are cached beside the outputs (deterministic for the parameters).
+  const auto& g = scene.generated_organ;
+  const fs::path cached = fs::path(output_directory) /
+                          ("organ_" + meshes::to_string(g.shape) + "_" + std::to_string(g.target_triangles) + ".vtp");
+  if (fs::is_regular_file(cached)) return meshes::load_surface(cached.string());
+  const auto start = std::chrono::steady_clock::now();
+  const meshes::OrganMesh mesh = meshes::generate_organ_mesh(g);
+  meshes::write_surface_mesh(cached.string(), mesh.vertices, mesh.triangles);
+  if (print)
+    std::printf("organ: %s, %zu triangles (generated in %.1f s, cached as %s)\n", meshes::to_string(g.shape).c_str(),
+                mesh.triangles.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                cached.string().c_str());
+  return realtime::geometry::TriangleSurface(mesh.vertices, mesh.triangles, cached.string());
+}
+
+}  // namespace
+
+json run_sim(const SimScene& scene_in, const SimOptions& options) {
+  SimScene scene = scene_in;
+  rt::SceneSettings& s = scene.settings;
+  if (options.duration_s) s.duration_s = *options.duration_s;
+  if (options.output_directory) scene.output_directory = *options.output_directory;
+  if (options.window) scene.window = *options.window;
+  if (!options.screenshot_path.empty()) scene.screenshot_path = options.screenshot_path;
+  if (!options.replay_path.empty()) {
+    scene.device = DeviceKind::replay;
+    scene.replay_path = options.replay_path;
+  }
+  if (options.virtual_clock) s.record_force_history = true;
+  if (scene.write_force_history) s.record_force_history = true;
+  fs::create_directories(scene.output_directory);
+  const std::string out = scene.output_directory;
+
+  const realtime::geometry::TriangleSurface organ = load_organ(scene, out, options.print);
+  std::vector<std::string> notes;
+
+  // The device.
+  std::unique_ptr<haptics::HapticDevice> device;
+  haptics::PalpationTrajectory palpation;
+  switch (scene.device) {
+    case DeviceKind::none: break;
+    case DeviceKind::scripted: {
+      haptics::PalpationSettings p = scene.palpation;
+      if (s.duration_s > 0) p.duration_s = s.duration_s;
+      p.sample_rate_hz = s.rates.haptic_hz;
+      palpation = haptics::make_palpation_trajectory(organ, p);
+      device = std::make_unique<haptics::ScriptedDevice>(palpation.tip, palpation.tool_axis, palpation.sample_period_s,
+                                                         scene.device_max_force_N);
+      break;
+    }
+    case DeviceKind::replay:
+      device = std::make_unique<haptics::ReplayDevice>(haptics::ReplayDevice::from_csv(scene.replay_path, scene.device_max_force_N));
+      break;
+    case DeviceKind::openigtlink: {
+#ifdef TOUCHSTONE_HAVE_OPENIGTLINK
+      haptics::OpenIgtLinkSettings igtl;
+      igtl.port = scene.igtl_port;
+      igtl.length_unit_m = scene.igtl_length_unit_m;
+      igtl.max_force_N = scene.device_max_force_N;
+      device = std::make_unique<haptics::OpenIgtLinkDevice>(igtl);
+      if (options.print) std::printf("openigtlink: waiting for a peer on port %d\n", igtl.port);
+#else
+      throw ConfigError(scene.config_path + ": device.kind = \"openigtlink\": built without libOpenIGTLink");
+#endif
+      break;
+    }
+    case DeviceKind::openhaptics: {
+#ifdef TOUCHSTONE_HAVE_OPENHAPTICS
+      haptics::OpenHapticsSettings settings;
+      settings.device_name = scene.openhaptics_device_name;
+      settings.max_force_N = scene.device_max_force_N;
+      device = std::make_unique<haptics::OpenHapticsDevice>(settings);
+#else
+      throw ConfigError(scene.config_path +
+                        ": device.kind = \"openhaptics\": the OpenHaptics SDK was not found when this program was "
+                        "built (set OPENHAPTICS_ROOT and rebuild)");
+#endif
+      break;
+    }
+  }
+  std::unique_ptr<haptics::RecordingDevice> recorder;
+  haptics::HapticDevice* active = device.get();
+  if (device && !options.record_path.empty()) {
+    const double seconds = s.duration_s > 0 ? s.duration_s : 600.0;
+    recorder = std::make_unique<haptics::RecordingDevice>(*device, static_cast<std::size_t>(seconds * s.rates.haptic_hz) + 16);
+    active = recorder.get();
+  }
+
+  // The outputs.
+  std::vector<realtime::graphics::GraphicsSink*> sinks;
+#ifdef TOUCHSTONE_HAVE_VTK
+  std::unique_ptr<realtime::graphics::VtkTimeSeriesWriter> series;
+  std::unique_ptr<realtime::graphics::InteractiveWindow> window;
+  if (scene.write_time_series) {
+    realtime::graphics::VtkTimeSeriesSettings settings;
+    settings.output_directory = out;
+    settings.base_name = scene.name;
+    settings.frame_stride = scene.time_series_frame_stride;
+    series = std::make_unique<realtime::graphics::VtkTimeSeriesWriter>(settings);
+    sinks.push_back(series.get());
+  }
+  if (scene.window) {
+    if (realtime::graphics::InteractiveWindow::display_available()) {
+      realtime::graphics::InteractiveWindowSettings settings;
+      settings.title = "Touchstone: " + scene.name;
+      if (!scene.screenshot_path.empty()) settings.screenshot_path = relative_to(out, scene.screenshot_path);
+      window = std::make_unique<realtime::graphics::InteractiveWindow>(settings);
+      sinks.push_back(window.get());
+    } else {
+      notes.push_back("no display: the interactive window was skipped (set DISPLAY, or run under xvfb-run)");
+    }
+  }
+#else
+  if (scene.write_time_series || scene.window) notes.push_back("built without VTK: no time series, no window");
+#endif
+#ifdef TOUCHSTONE_HAVE_OPENIGTLINK
+  if (scene.device == DeviceKind::openigtlink && scene.igtl_polydata)
+    sinks.push_back(static_cast<haptics::OpenIgtLinkDevice*>(device.get()));
+#endif
+
+  rt::Simulation simulation(organ, s, active, sinks);
+  if (options.print)
+    std::printf("sim %s: organ %zu triangles, device %s, %s clock, duration %s\n", scene.name.c_str(),
+                organ.triangles().size(), to_string(scene.device).c_str(), options.virtual_clock ? "virtual" : "real",
+                s.duration_s > 0 ? (std::to_string(s.duration_s) + " s").c_str() : "until the device ends");
+  rt::RunSummary summary = options.virtual_clock ? simulation.run_virtual(options.stop) : simulation.run_threaded(options.stop);
+  for (const auto& note : notes) summary.notes.push_back(note);
+
+  json document = summary_json(summary);
+  document["scene"] = scene.name;
+  document["config"] = scene.config_path;
+  document["organ_triangles"] = organ.triangles().size();
+  document["provenance"] = provenance(read_file(scene.config_path));
+  if (scene.device == DeviceKind::scripted) document["palpations"] = palpation.palpations;
+#ifdef TOUCHSTONE_HAVE_VTK
+  if (series) {
+    document["time_series"] = {{"organ_pvd", series->organ_pvd_path()}, {"tool_pvd", series->tool_pvd_path()},
+                               {"frames_written", series->frames_written()}, {"bytes_written", series->bytes_written()}};
+  }
+  if (window) document["window"] = {{"frames_rendered", window->frames_rendered()},
+                                    {"screenshots_written", window->screenshots_written()},
+                                    {"screenshot", window->settings().screenshot_path}};
+#endif
+  if (recorder) {
+    recorder->write_csv(options.record_path);
+    document["recording"] = {{"file", options.record_path}, {"samples", recorder->samples().size()},
+                             {"dropped", recorder->dropped()}};
+  }
+  if (!summary.force_history.empty()) {
+    std::ostringstream csv;
+    csv << "time_s,tip_x_m,tip_y_m,tip_z_m,force_x_N,force_y_N,force_z_N,exact_x_N,exact_y_N,exact_z_N,in_contact\n";
+    char line[400];
+    for (const auto& f : summary.force_history) {
+      std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", f.time_s,
+                    f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), f.force_on_hand_N.x(), f.force_on_hand_N.y(),
+                    f.force_on_hand_N.z(), -f.exact_N.x(), -f.exact_N.y(), -f.exact_N.z(), f.in_contact ? 1 : 0);
+      csv << line;
+    }
+    write_file_atomically((fs::path(out) / "forces.csv").string(), csv.str());
+    document["force_history"] = (fs::path(out) / "forces.csv").string();
+  }
+  write_file_atomically((fs::path(out) / "summary.json").string(), document.dump(2) + "\n");
+  if (options.print) {
+    std::printf("%s", summary_text(summary).c_str());
+    std::printf("summary: %s\n", (fs::path(out) / "summary.json").string().c_str());
+  }
+  return document;
+}
+
+}  // namespace touchstone::studies
