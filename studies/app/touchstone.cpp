@@ -285,7 +285,7 @@ int main(int argc, char** argv) {
 
   // `touchstone sim <scene>`: the real-time runtime (issue 6) on real threads or, with
   // --virtual, lock-step on a virtual clock (study mode). Ctrl-C ends the run cleanly (zero force).
-  std::string sim_scene_path, sim_output, sim_record, sim_replay, sim_screenshot;
+  std::string sim_scene_path, sim_output, sim_record, sim_replay, sim_screenshot, sim_force_mode;
   double sim_duration = -1;
   bool sim_virtual = false, sim_window = false, sim_no_window = false;
   CLI::App* sim_cmd = app.add_subcommand(
@@ -298,6 +298,8 @@ int main(int argc, char** argv) {
   sim_cmd->add_option("--record", sim_record, "Record every tick's pose and force as CSV (replay with device.kind = \"replay\")");
   sim_cmd->add_option("--replay", sim_replay, "Play a recording (from --record) instead of the scene's device")
       ->check(CLI::ExistingFile);
+  sim_cmd->add_option("--force-mode", sim_force_mode, "Override the scene's force mode")
+      ->check(CLI::IsMember({"stiffness", "extrapolation"}));
   sim_cmd->add_flag("--virtual", sim_virtual, "Study mode: lock-step on a virtual clock, bit-reproducible");
   sim_cmd->add_flag("--window", sim_window, "Open the interactive VTK window (needs a display)");
   sim_cmd->add_flag("--no-window", sim_no_window, "Do not open the window even if the scene asks for it");
@@ -313,6 +315,9 @@ int main(int argc, char** argv) {
       if (!sim_output.empty()) options.output_directory = sim_output;
       options.record_path = sim_record;
       options.replay_path = sim_replay;
+      if (!sim_force_mode.empty())
+        options.force_mode = sim_force_mode == "extrapolation" ? realtime::runtime::ForceMode::extrapolation
+                                                               : realtime::runtime::ForceMode::stiffness;
       options.virtual_clock = sim_virtual;
       if (sim_window) options.window = true;
       if (sim_no_window) options.window = false;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -477,5 +478,30 @@ void ConfigTable::finish() const {
 }
 
 std::string ConfigTable::where(const std::string& key) const { return state_->where(key); }
+
+int checked_int(const std::string& where, std::int64_t value) {
+  if (value < INT_MIN || value > INT_MAX)
+    throw ConfigError(where + ": " + std::to_string(value) + " is out of the range of an int");
+  return static_cast<int>(value);
+}
+
+int read_int(ConfigTable& table, const std::string& key, int default_value) {
+  return checked_int(table.where(key), table.integer(key, default_value));
+}
+
+std::vector<int> read_int_list(ConfigTable& table, const std::string& key, const std::vector<int>& default_value) {
+  const std::vector<std::int64_t> values =
+      table.integer_list(key, std::vector<std::int64_t>(default_value.begin(), default_value.end()));
+  std::vector<int> result;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    result.push_back(checked_int(table.where(key) + "[" + std::to_string(i) + "]", values[i]));
+  return result;
+}
+
+std::uint64_t read_seed(ConfigTable& table, const std::string& key, std::uint64_t default_value) {
+  const std::int64_t seed = table.integer(key, static_cast<std::int64_t>(default_value));
+  if (seed < 0) throw ConfigError(table.where(key) + ": " + std::to_string(seed) + " must be >= 0");
+  return static_cast<std::uint64_t>(seed);
+}
 
 }  // namespace touchstone::studies

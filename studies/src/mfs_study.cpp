@@ -80,16 +80,6 @@ E read_choice(ConfigTable& table, const std::string& key, const std::vector<Name
   return value_of(choices, table.choice(key, names(choices), name_of(choices, default_value)));
 }
 
-int checked_int(const std::string& where, std::int64_t value) {
-  if (value < INT_MIN || value > INT_MAX)
-    throw ConfigError(where + ": " + std::to_string(value) + " is out of the range of an int");
-  return static_cast<int>(value);
-}
-
-int read_int(ConfigTable& table, const std::string& key, int default_value) {
-  return checked_int(table.where(key), table.integer(key, default_value));
-}
-
 // ---------------------------------------------------------------------------------------------
 // JSON that never holds NaN: a non-finite number becomes null (and the case is not "ok").
 

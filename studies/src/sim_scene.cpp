@@ -33,18 +33,6 @@ using nlohmann::json;
 
 namespace {
 
-int read_int(ConfigTable& table, const std::string& key, int default_value) {
-  const std::int64_t value = table.integer(key, default_value);
-  if (value < INT32_MIN || value > INT32_MAX) throw ConfigError(table.where(key) + ": " + std::to_string(value) + " is out of range");
-  return static_cast<int>(value);
-}
-
-std::uint64_t read_seed(ConfigTable& table, const std::string& key, std::uint64_t default_value) {
-  const std::int64_t value = table.integer(key, static_cast<std::int64_t>(default_value));
-  if (value < 0) throw ConfigError(table.where(key) + ": " + std::to_string(value) + " must be >= 0");
-  return static_cast<std::uint64_t>(value);
-}
-
 std::string relative_to(const std::string& directory, const std::string& path) {
   if (path.empty()) return path;
   fs::path p(path);
@@ -171,6 +159,8 @@ SimScene read_sim_scene(const std::string& path) {
   s.prediction.sample_period_cycles = read_int(prediction, "sample_period_cycles", s.prediction.sample_period_cycles);
   s.prediction.straight_line_range_m = prediction.quantity("straight_line_range", Dimension::length, s.prediction.straight_line_range_m);
   s.prediction.margin_m = prediction.quantity("margin", Dimension::length, s.prediction.margin_m);
+  s.prediction.direction_check_period_cycles =
+      read_int(prediction, "direction_check_period_cycles", s.prediction.direction_check_period_cycles);
 
   ConfigTable timing = config.table("timing");
   s.timing.spin_tail_s = timing.quantity("spin_tail", Dimension::time, s.timing.spin_tail_s);
@@ -311,6 +301,12 @@ std::string summary_text(const rt::RunSummary& r) {
 
 namespace {
 
+std::string fmt_seconds(double seconds) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g s", seconds);
+  return text;
+}
+
 realtime::geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
   if (!scene.surface_path.empty()) return meshes::load_surface(scene.surface_path);
   // Generated shapes are cached beside the outputs (deterministic for the parameters).
@@ -334,6 +330,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   SimScene scene = scene_in;
   rt::SceneSettings& s = scene.settings;
   if (options.duration_s) s.duration_s = *options.duration_s;
+  if (options.force_mode) s.force_mode = *options.force_mode;
   if (options.output_directory) scene.output_directory = *options.output_directory;
   if (options.window) scene.window = *options.window;
   if (!options.screenshot_path.empty()) scene.screenshot_path = options.screenshot_path;
@@ -435,9 +432,10 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
 
   rt::Simulation simulation(organ, s, active, sinks);
   if (options.print)
-    std::printf("sim %s: organ %zu triangles, device %s, %s clock, duration %s\n", scene.name.c_str(),
-                organ.triangles().size(), to_string(scene.device).c_str(), options.virtual_clock ? "virtual" : "real",
-                s.duration_s > 0 ? (std::to_string(s.duration_s) + " s").c_str() : "until the device ends");
+    std::printf("sim %s: organ %zu triangles, device %s, %s clock, %s\n", scene.name.c_str(), organ.triangles().size(),
+                to_string(scene.device).c_str(), options.virtual_clock ? "virtual" : "real",
+                s.duration_s > 0 ? fmt_seconds(s.duration_s).c_str() : "until the device ends");
+  std::fflush(stdout);  // the run may last minutes: say it started (pipes buffer fully)
   rt::RunSummary summary = options.virtual_clock ? simulation.run_virtual(options.stop) : simulation.run_threaded(options.stop);
   for (const auto& note : notes) summary.notes.push_back(note);
 

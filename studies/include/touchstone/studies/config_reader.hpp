@@ -85,4 +85,13 @@ class ConfigTable {
   std::shared_ptr<State> state_;
 };
 
+/// `value` as an int; ConfigError naming `where` when it does not fit.
+int checked_int(const std::string& where, std::int64_t value);
+/// An integer key that must fit an int.
+int read_int(ConfigTable& table, const std::string& key, int default_value);
+/// An integer or a list of integers, each fitting an int.
+std::vector<int> read_int_list(ConfigTable& table, const std::string& key, const std::vector<int>& default_value);
+/// A random seed: an integer ≥ 0.
+std::uint64_t read_seed(ConfigTable& table, const std::string& key, std::uint64_t default_value);
+
 }  // namespace touchstone::studies

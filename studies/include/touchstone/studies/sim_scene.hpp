@@ -56,6 +56,7 @@ struct SimOptions {
   std::string record_path;             ///< CSV of every tick's pose and force (replayable)
   std::string replay_path;             ///< plays this recording instead of the scene's device
   bool virtual_clock = false;          ///< study mode: lock-step, bit-reproducible
+  std::optional<realtime::runtime::ForceMode> force_mode;  ///< overrides the scene's
   std::optional<bool> window;          ///< overrides the scene's
   std::string screenshot_path;         ///< overrides the scene's
   const std::atomic<bool>* stop = nullptr;  ///< Ctrl-C

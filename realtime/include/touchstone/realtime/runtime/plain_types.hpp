@@ -12,7 +12,7 @@ namespace touchstone::realtime::runtime {
 using PlainVector3 = std::array<double, 3>;
 using PlainMatrix3 = std::array<double, 9>;  ///< column-major, as Eigen
 
-inline PlainVector3 plain(const Eigen::Vector3d& v) noexcept { return {v.x(), v.y(), v.z()}; }
+inline PlainVector3 plain(const Eigen::Vector3d& v) noexcept { return {{v.x(), v.y(), v.z()}}; }
 inline Eigen::Vector3d eigen(const PlainVector3& v) noexcept { return {v[0], v[1], v[2]}; }
 inline PlainMatrix3 plain(const Eigen::Matrix3d& m) noexcept {
   PlainMatrix3 out{};

@@ -1,0 +1,38 @@
+#pragma once
+// Private to realtime/src/runtime: the model loop (~200 Hz). It builds local models at
+// predicted and actual contacts and when the tool slides, publishes K_t and the contact frame,
+// and computes the model-rate force the paper extrapolated. The builds run on a worker thread
+// (RuntimeState::build_worker), so the loop's heartbeat never stops for one.
+
+#include "runtime_state.hpp"
+
+namespace touchstone::realtime::runtime {
+
+struct ModelLoop {
+  RuntimeState& sim;
+  bool synchronous;  ///< virtual clock: builds complete within the step
+  std::shared_ptr<const mfs::LocalModel> model;
+  ModelSnapshot snapshot;
+  bool build_in_flight = false;
+  BuildRequest in_flight;
+  std::vector<double> build_times_s;
+  WorkCounters work;  // model fields only
+
+  ModelLoop(RuntimeState& sim_, bool synchronous_) : sim(sim_), synchronous(synchronous_) {}
+
+  /// Hands a build to the worker (virtual clock: builds it now).
+  void request(const BuildRequest& request);
+  /// Takes a finished build from the worker, if any.
+  void collect();
+  /// Makes a built model current: a new model id, K_t and the contact frame for the haptic
+  /// loop, the deformation map for graphics. A failed build keeps the previous model.
+  void adopt(BuildResult result);
+  /// A current model whose contact point is within keep_fraction × L of `point`, facing it.
+  bool near_model(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
+  /// A build in flight within keep_fraction × L of `point`.
+  bool near_in_flight(const Eigen::Vector3d& point) const;
+  /// One step at `time_s`: decide what to build, compute the model-rate force, publish.
+  void step(double time_s);
+};
+
+}  // namespace touchstone::realtime::runtime
