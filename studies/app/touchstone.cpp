@@ -220,7 +220,6 @@ int main(int argc, char** argv) {
   std::vector<std::string> study_args;
   studies::StudyRunOptions study_options;
   bool study_no_cache = false, study_no_report = false;
-  int study_jobs = 1;
   CLI::App* study_cmd = app.add_subcommand(
       "study", "Compare the MFS with the converged FEM reference: force error vs N, displacement error, run time, "
                "Table 2 replica, DESIGN.md targets; writes results.json, CSV tables and report.md. "
@@ -229,7 +228,8 @@ int main(int argc, char** argv) {
       ->required()->expected(1, 2);
   study_cmd->add_option("--out", study_options.output_directory, "Output folder (default: output/<study name>)");
   study_cmd->add_option("--only", study_options.only, "Run only MFS cases whose id contains this text (repeatable)");
-  study_cmd->add_option("--jobs", study_jobs, "Parallel cases (cases run one at a time: timings stay clean)")
+  study_cmd->add_option("--jobs", study_options.jobs,
+                        "MFS cases run this many at a time (1: alone, so their run times are clean)")
       ->check(CLI::Range(1, 64))->capture_default_str();
   study_cmd->add_option("--cache", study_options.cache_directory, "Cache of FEM solves")->capture_default_str();
   study_cmd->add_flag("--no-cache", study_no_cache, "Solve every FEM level again and cache nothing");
@@ -247,7 +247,8 @@ int main(int argc, char** argv) {
       fem::MpiSession mpi(argc, argv);
       if (study_no_cache) study_options.cache_directory.clear();
       study_options.write_report = !study_no_report;
-      if (study_jobs > 1 && !study_options.quiet) std::printf("note: --jobs %d: cases run one at a time so that run times are measured alone\n", study_jobs);
+      if (study_options.jobs > 1 && !study_options.quiet)
+        std::printf("note: --jobs %d: MFS run times are measured while other cases run\n", study_options.jobs);
       const studies::ComparisonStudy study = studies::read_comparison_study(study_args.back());
       if (study_options.output_directory.empty()) study_options.output_directory = "output/" + study.name;
       const nlohmann::json results = studies::run_comparison_study(study, study_options);

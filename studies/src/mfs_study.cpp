@@ -3,6 +3,7 @@
 #include "touchstone/studies/mfs_study.hpp"
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
 #include "touchstone/studies/probes.hpp"
 #include "touchstone/studies/provenance.hpp"
@@ -351,6 +352,50 @@ class CaseRunner {
     fields.parameters_m = solution.parameters;
     fields.rcond = node_rcond(cloud, settings.collocation.mls);
     write_vtu(c, cloud, fields, vtu_name);
+    if (!options_.reference_field_path.empty()) compare_with_reference(c, model, solution.parameters, contact);
+  }
+
+  /// The MFS field on the reference's points, beside the reference's own and their difference
+  /// (inside the local domain; outside it the MFS has no field and the difference is set to 0).
+  void compare_with_reference(json& c, const mfs::LocalModel& model, const Eigen::VectorXd& parameters,
+                              const mfs::ToolContact& contact) const {
+    try {
+      const meshes::PointField reference = meshes::read_point_field(options_.reference_field_path, "displacement_m");
+      const std::size_t count = reference.points_m.size();
+      const double radius = model.settings.sprinkling.local_radius_m;
+      std::vector<Eigen::Vector3d> inside_points;
+      std::vector<std::size_t> inside_index;
+      for (std::size_t i = 0; i < count; ++i)
+        if ((reference.points_m[i] - contact.point).norm() < radius) {
+          inside_points.push_back(reference.points_m[i]);
+          inside_index.push_back(i);
+        }
+      std::vector<Eigen::Vector3d> sampled;
+      mfs::displacement_at(model, parameters, inside_points, sampled);
+      std::vector<Eigen::Vector3d> mfs_field(count, Eigen::Vector3d::Zero()), difference(count, Eigen::Vector3d::Zero());
+      std::vector<double> mask(count, 0.0), magnitude(count, 0.0);
+      double difference_sq = 0, reference_sq = 0;
+      for (std::size_t k = 0; k < inside_index.size(); ++k) {
+        const std::size_t i = inside_index[k];
+        mfs_field[i] = sampled[k];
+        difference[i] = sampled[k] - reference.values[i];
+        magnitude[i] = difference[i].norm();
+        mask[i] = 1.0;
+        difference_sq += difference[i].squaredNorm();
+        reference_sq += reference.values[i].squaredNorm();
+      }
+      const std::string name = c["id"].get<std::string>() + "_on_reference.vtu";
+      meshes::write_with_point_arrays(options_.reference_field_path,
+                                      (fs::path(options_.output_directory) / name).string(),
+                                      {{"mfs_displacement_m", mfs_field}, {"difference_m", difference}},
+                                      {{"difference_magnitude_m", magnitude}, {"in_local_domain", mask}});
+      c["comparison_vtu"] = name;
+      c["comparison_points"] = inside_index.size();
+      c["error"]["field_rel_l2"] = reference_sq > 0 ? number(std::sqrt(difference_sq / reference_sq)) : json(nullptr);
+    } catch (const std::exception& e) {
+      // The comparison picture is extra: its failure is recorded, the case's numbers stand.
+      c["comparison_error"] = e.what();
+    }
   }
 
   /// The study's probe points inside the local ball. The 0.9 L reach is the one the FEM uses

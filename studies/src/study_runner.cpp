@@ -10,14 +10,18 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #ifndef TOUCHSTONE_SOURCE_DIR
 #define TOUCHSTONE_SOURCE_DIR "."
@@ -144,6 +148,7 @@ struct ReferenceValue {
   double uncertainty_rel = nan_value;
   double disp_uncertainty_rel = nan_value;  ///< probe change, second-finest → finest mesh
   json probes = json::array();
+  std::string field_vtu;  ///< the probes' level's solution file, relative to its FEM output folder
   json summary;
 };
 
@@ -202,6 +207,7 @@ ReferenceValue pick_reference(const json& document, const std::string& prefix, c
     levels.push_back(&c);
   }
   if (levels.size() >= 2) r.disp_uncertainty_rel = value_or_nan(levels[levels.size() - 2]->at("error"), "disp_rel_l2");
+  if (!levels.empty()) r.field_vtu = levels.back()->value("vtu", "");
   r.summary = {{"case", r.id},
                {"study", document.value("study", "")},
                {"axial_force_N", number(r.force_N)},
@@ -293,8 +299,33 @@ class StudyRun {
     // Under mpirun every rank takes part in the FEM solves; the MFS cases, the files and the
     // report are rank 0's.
     if (fem::MpiSession::rank() != 0) return document;
-    for (const auto& [series, n] : mfs_cases) {
-      json c = run_mfs_case(*series, n);
+    // The organ surfaces first (gmsh, one at a time), then the cases, `jobs` at a time; each
+    // writes only its own folder. Results keep the study's order.
+    for (const auto& [series, n] : mfs_cases) organ_path(series->study);
+    std::vector<json> computed(mfs_cases.size());
+    const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(mfs_cases.size())));
+    document["mfs_jobs"] = jobs;
+    if (jobs == 1) {
+      for (std::size_t i = 0; i < mfs_cases.size(); ++i) computed[i] = run_mfs_case(*mfs_cases[i].first, mfs_cases[i].second);
+    } else {
+      std::atomic<std::size_t> next{0};
+      std::vector<std::exception_ptr> errors(static_cast<std::size_t>(jobs));
+      std::vector<std::thread> workers;
+      for (int w = 0; w < jobs; ++w)
+        workers.emplace_back([&, w] {
+          try {
+            for (std::size_t i; (i = next.fetch_add(1)) < mfs_cases.size();)
+              computed[i] = run_mfs_case(*mfs_cases[i].first, mfs_cases[i].second);
+          } catch (...) {
+            errors[static_cast<std::size_t>(w)] = std::current_exception();
+          }
+        });
+      for (auto& worker : workers) worker.join();
+      for (const auto& error : errors)
+        if (error) std::rethrow_exception(error);
+    }
+    for (std::size_t i = 0; i < mfs_cases.size(); ++i) {
+      json c = std::move(computed[i]);
       add_mfs_errors(c, full_reference ? &*full_reference : nullptr);
       progress(c.at("id").get<std::string>() + (c.value("resumed", false) ? " (resumed)" : ""),
                "F = " + format_number(1e3 * value_or_nan(c.at("qoi"), "axial_force_N")) + " mN, error " +
@@ -314,6 +345,7 @@ class StudyRun {
 
     write_file_atomically(out_ + "/results.json", document.dump(2) + "\n");
     write_csv(document);
+    write_comparison_pvds(cases);
     if (!options_.quiet) print_summary(document);
     if (options_.write_report) make_report();
     return document;
@@ -462,12 +494,16 @@ class StudyRun {
     o.output_directory = directory;
     o.config_text = series.config_text;
     o.quiet = true;
+    // The MFS field on the reference's finest mesh, for ParaView (and a field error).
+    if (!reference_.field_vtu.empty()) o.reference_field_path = out_ + "/fem/reference/" + reference_.field_vtu;
     const json doc = run_mfs_study(s, o);
     json c = doc.at("cases").at(0);
     c["id"] = id;
     c["series"] = series.name;
     c["part"] = "mfs";
     if (c.value("vtu", json(nullptr)).is_string()) c["vtu"] = "mfs/" + id + "/" + c.at("vtu").get<std::string>();
+    if (c.value("comparison_vtu", json(nullptr)).is_string())
+      c["comparison_vtu"] = "mfs/" + id + "/" + c.at("comparison_vtu").get<std::string>();
     const json& t = c["time_s"];
     // Table 2's split: model = sprinkle + shape functions + assembly (the paper's "time to
     // generate the stiffness matrix"); solution = factorisation + condensation to K_t + solve.
@@ -476,6 +512,24 @@ class StudyRun {
     write_file_atomically(record_path, json{{"case_sha256", hash}, {"case", c}}.dump(2) + "\n");
     c["resumed"] = false;
     return c;
+  }
+
+  /// One PVD per MFS series, its cases' fields on the reference mesh with the node count as the
+  /// time step: ParaView steps through N and shows MFS, FEM and their difference.
+  void write_comparison_pvds(const json& cases) const {
+    std::map<std::string, std::vector<std::pair<double, std::string>>> by_series;
+    for (const auto& c : cases)
+      if (c.value("part", "") == "mfs" && c.value("comparison_vtu", json(nullptr)).is_string())
+        by_series[c.at("series").get<std::string>()].push_back(
+            {c.at("params").value("node_count", 0.0), c.at("comparison_vtu").get<std::string>()});
+    for (auto& [series, files] : by_series) {
+      std::sort(files.begin(), files.end());
+      std::ostringstream pvd;
+      pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
+      for (const auto& [n, file] : files) pvd << "    <DataSet timestep=\"" << n << "\" group=\"\" part=\"0\" file=\"" << file << "\"/>\n";
+      pvd << "  </Collection>\n</VTKFile>\n";
+      write_file_atomically(out_ + "/mfs_on_reference_" + series + ".pvd", pvd.str());
+    }
   }
 
   void add_mfs_errors(json& c, const ReferenceValue* full) const {
@@ -506,6 +560,7 @@ class StudyRun {
         error["disp_probes"] = p.count;
       }
     }
+    error["field_rel_l2"] = c.value("error", json::object()).value("field_rel_l2", json(nullptr));
     c["error"] = error;
     c["reference"] = reference_.id;
     if (full != nullptr && study_.problem.benchmark != study_.table2_reference->geometry.benchmark) {

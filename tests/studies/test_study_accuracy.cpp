@@ -58,6 +58,20 @@ TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
       EXPECT_NEAR(forces[i].get<double>(), k * depths[i].get<double>(), 1e-12 * std::abs(forces.back().get<double>()));
   }
 
+  // The MFS field on the reference mesh, for ParaView: one file per case, one PVD per series,
+  // and the field error agrees with the probes in order of magnitude (the probes sit where u is
+  // largest, the field error weighs every node of the domain).
+  for (const auto& c : results.at("cases")) {
+    if (c.at("model") != "mfs" || c.at("status") != "ok") continue;
+    ASSERT_TRUE(c.contains("comparison_vtu")) << c.at("id") << ": " << c.value("comparison_error", "");
+    EXPECT_TRUE(fs::exists(out / c.at("comparison_vtu").get<std::string>())) << c.at("comparison_vtu");
+    const double field = c.at("error").at("field_rel_l2").get<double>();
+    const double probes = c.at("error").at("disp_rel_l2").get<double>();
+    EXPECT_GT(field, probes / 4) << c.at("id");
+    EXPECT_LT(field, probes * 4) << c.at("id");
+  }
+  EXPECT_TRUE(fs::exists(out / "mfs_on_reference_galerkin.pvd"));
+
   // Resume: the same study in the same folder reuses every MFS case, with the same numbers.
   const json again = run_comparison_study(study, options);
   std::size_t mfs_cases = 0;
@@ -71,6 +85,22 @@ TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
       }
   }
   EXPECT_EQ(mfs_cases, 5u);
+
+  // --jobs 2 in a new folder: the cases run two at a time and give the same numbers.
+  options.jobs = 2;
+  options.output_directory = (out / "jobs2").string();
+  const json parallel = run_comparison_study(study, options);
+  EXPECT_EQ(parallel.at("mfs_jobs"), 2);
+  ASSERT_EQ(parallel.at("cases").size(), results.at("cases").size());
+  for (std::size_t i = 0; i < parallel.at("cases").size(); ++i) {
+    const json& a = results.at("cases")[i];
+    const json& b = parallel.at("cases")[i];
+    ASSERT_EQ(a.at("id"), b.at("id")) << "the study's order is kept";
+    if (a.at("model") == "mfs") {
+      EXPECT_FALSE(b.value("resumed", true)) << b.at("id");
+      EXPECT_EQ(a.at("error").at("force_rel"), b.at("error").at("force_rel")) << b.at("id");
+    }
+  }
   fs::remove_all(out);
 }
 

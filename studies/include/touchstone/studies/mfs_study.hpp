@@ -67,6 +67,11 @@ struct MfsRunOptions {
   std::string output_directory = "output/mfs";
   std::string config_text;  ///< for provenance (config_sha256)
   bool quiet = false;
+  /// A reference solution on a mesh (.vtu/.pvtu with a point array `displacement_m`, at the
+  /// study's depth): each case then also writes <case id>_on_reference.vtu — that mesh with the
+  /// MFS field sampled at its points, the difference MFS − reference and the local-domain mask —
+  /// and reports the difference's relative L2 norm over the points (error.field_rel_l2).
+  std::string reference_field_path;
 };
 
 /// Runs every case and writes <out>/results.json, <out>/config.resolved.toml and
