@@ -674,6 +674,24 @@ CollisionStudy default_collision_study() {
   return study;
 }
 
+void read_prediction_settings(ConfigTable& prediction, realtime::collision::PredictionSettings& p) {
+  p.window_samples = read_int(prediction, "window_samples", p.window_samples);
+  p.sample_period_cycles = read_int(prediction, "sample_period_cycles", p.sample_period_cycles);
+  p.straight_line_range_m = prediction.quantity("straight_line_range", Dimension::length, p.straight_line_range_m);
+  p.direction_threshold_rad = prediction.quantity("direction_threshold", Dimension::angle, p.direction_threshold_rad);
+  p.margin_m = prediction.quantity("margin", Dimension::length, p.margin_m);
+  p.handover_distance_m = prediction.quantity("handover_distance", Dimension::length, p.handover_distance_m);
+  p.near_exit_distance_m = prediction.quantity("near_exit_distance", Dimension::length, p.near_exit_distance_m);
+  p.corridor_step_fraction = prediction.number("corridor_step_fraction", p.corridor_step_fraction);
+  p.corridor_balls = read_int(prediction, "corridor_balls", p.corridor_balls);
+  p.ray_max_distance_m = prediction.quantity("ray_max_distance", Dimension::length, p.ray_max_distance_m);
+  p.min_path_length_m = prediction.quantity("min_path_length", Dimension::length, p.min_path_length_m);
+  p.detection_period_cycles = read_int(prediction, "detection_period_cycles", p.detection_period_cycles);
+  p.max_tip_speed_m_per_s = prediction.number("max_tip_speed_m_per_s", p.max_tip_speed_m_per_s);
+  p.direction_check_period_cycles = read_int(prediction, "direction_check_period_cycles", p.direction_check_period_cycles);
+  p.audit = prediction.boolean("audit", p.audit);
+}
+
 CollisionStudy read_collision_study(ConfigTable& config) {
   CollisionStudy study = default_collision_study();
   study.name = config.string("study", study.name);
@@ -758,21 +776,7 @@ CollisionStudy read_collision_study(ConfigTable& config) {
 
   ConfigTable prediction = config.table("prediction");
   rc::PredictionSettings& p = study.prediction;
-  p.window_samples = read_int(prediction, "window_samples", p.window_samples);
-  p.sample_period_cycles = read_int(prediction, "sample_period_cycles", p.sample_period_cycles);
-  p.straight_line_range_m = prediction.quantity("straight_line_range", Dimension::length, p.straight_line_range_m);
-  p.direction_threshold_rad = prediction.quantity("direction_threshold", Dimension::angle, p.direction_threshold_rad);
-  p.margin_m = prediction.quantity("margin", Dimension::length, p.margin_m);
-  p.handover_distance_m = prediction.quantity("handover_distance", Dimension::length, p.handover_distance_m);
-  p.near_exit_distance_m = prediction.quantity("near_exit_distance", Dimension::length, p.near_exit_distance_m);
-  p.corridor_step_fraction = prediction.number("corridor_step_fraction", p.corridor_step_fraction);
-  p.corridor_balls = read_int(prediction, "corridor_balls", p.corridor_balls);
-  p.ray_max_distance_m = prediction.quantity("ray_max_distance", Dimension::length, p.ray_max_distance_m);
-  p.min_path_length_m = prediction.quantity("min_path_length", Dimension::length, p.min_path_length_m);
-  p.detection_period_cycles = read_int(prediction, "detection_period_cycles", p.detection_period_cycles);
-  p.max_tip_speed_m_per_s = prediction.number("max_tip_speed_m_per_s", p.max_tip_speed_m_per_s);
-  p.direction_check_period_cycles = read_int(prediction, "direction_check_period_cycles", p.direction_check_period_cycles);
-  p.audit = prediction.boolean("audit", p.audit);
+  read_prediction_settings(prediction, p);
   p.cycle_period_s = a.sample_rate_hz > 0 ? 1 / a.sample_rate_hz : p.cycle_period_s;
 
   ConfigTable tremor_study = config.table("tremor_study");

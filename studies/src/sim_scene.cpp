@@ -4,6 +4,7 @@
 #include "touchstone/realtime/haptics/device_recorder.hpp"
 #include "touchstone/realtime/haptics/replay_device.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
+#include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/provenance.hpp"
 #ifdef TOUCHSTONE_HAVE_VTK
@@ -155,12 +156,7 @@ SimScene read_sim_scene(const std::string& path) {
   s.safety.stale_after_s = safety.quantity("stale_after", Dimension::time, s.safety.stale_after_s);
 
   ConfigTable prediction = config.table("prediction");
-  s.prediction.window_samples = read_int(prediction, "window_samples", s.prediction.window_samples);
-  s.prediction.sample_period_cycles = read_int(prediction, "sample_period_cycles", s.prediction.sample_period_cycles);
-  s.prediction.straight_line_range_m = prediction.quantity("straight_line_range", Dimension::length, s.prediction.straight_line_range_m);
-  s.prediction.margin_m = prediction.quantity("margin", Dimension::length, s.prediction.margin_m);
-  s.prediction.direction_check_period_cycles =
-      read_int(prediction, "direction_check_period_cycles", s.prediction.direction_check_period_cycles);
+  read_prediction_settings(prediction, s.prediction);
 
   ConfigTable timing = config.table("timing");
   s.timing.spin_tail_s = timing.quantity("spin_tail", Dimension::time, s.timing.spin_tail_s);

@@ -91,6 +91,10 @@ struct CollisionStudy {
 /// hemisphere at 2,500; trees "binary" and "default").
 CollisionStudy default_collision_study();
 
+/// Reads a [prediction] table into `settings` (its values are the defaults); shared by
+/// `touchstone collision` studies and `touchstone sim` scenes. The cycle period is the caller's.
+void read_prediction_settings(ConfigTable& prediction, realtime::collision::PredictionSettings& settings);
+
 /// Reads a study; unknown keys are errors naming the file and key, invalid values end in a
 /// ConfigError naming the file and the field.
 CollisionStudy read_collision_study(ConfigTable& config);
