@@ -168,11 +168,7 @@ DeviceSample OpenHapticsDevice::read(double /*time_s*/) noexcept {
 }
 
 void OpenHapticsDevice::write_force(const Eigen::Vector3d& force_N, double /*time_s*/) noexcept {
-  Eigen::Vector3d force = force_N.allFinite() ? force_N : Eigen::Vector3d::Zero();
-  const double limit = max_force_N_.load(std::memory_order_relaxed);
-  const double magnitude = force.norm();
-  if (magnitude > limit) force *= limit / magnitude;
-  force_.store(runtime::plain(force));
+  force_.store(runtime::plain(bounded_force_N(force_N, max_force_N_.load(std::memory_order_relaxed))));
 }
 
 void OpenHapticsDevice::stop() noexcept {

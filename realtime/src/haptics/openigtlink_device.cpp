@@ -730,10 +730,7 @@ DeviceSample OpenIgtLinkDevice::read(double /*time_s*/) noexcept {
 }
 
 void OpenIgtLinkDevice::write_force(const Eigen::Vector3d& force_N, double /*time_s*/) noexcept {
-  Eigen::Vector3d force = force_N.allFinite() ? force_N : Eigen::Vector3d::Zero();
-  const double magnitude = force.norm();
-  if (magnitude > settings_.max_force_N) force *= settings_.max_force_N / magnitude;
-  force_.store(runtime::plain(force));
+  force_.store(runtime::plain(bounded_force_N(force_N, settings_.max_force_N)));
 }
 
 void OpenIgtLinkDevice::stop() noexcept {

@@ -6,8 +6,7 @@
 namespace touchstone::realtime::runtime {
 
 HapticLoop::HapticLoop(RuntimeState& sim_)
-    : sim(sim_), predictor(sim_.hierarchy, sim_.settings.prediction), safety(clamped_safety(sim_)),
-      period_s(1.0 / sim_.settings.rates.haptic_hz) {
+    : sim(sim_), predictor(sim_.hierarchy, sim_.settings.prediction), safety(clamped_safety(sim_)) {
   latencies_s.resize(1 << 16);  // touched now, kept as capacity
   latencies_s.clear();
 }
@@ -85,7 +84,6 @@ bool HapticLoop::tick(double time_s) noexcept {
     const collision::PredictionStep step = predictor.step(tip);
     if (step.status == collision::PredictionStatus::contact) {
       in_contact = true;
-      ++contact_epoch;
       ++work.contacts;
       contact_point = step.hit.point;
       contact_normal = step.hit.normal;
@@ -157,7 +155,6 @@ bool HapticLoop::tick(double time_s) noexcept {
   state.tool_axis = plain(sample.orientation * Eigen::Vector3d::UnitZ());
   state.force_on_hand_N = plain(out);
   state.in_contact = in_contact;
-  state.contact_epoch = contact_epoch;
   state.contact_point_m = plain(contact_point);
   state.contact_normal = plain(contact_normal);
   const collision::CollisionPrediction& prediction = predictor.prediction();

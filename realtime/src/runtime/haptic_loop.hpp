@@ -13,10 +13,8 @@ struct HapticLoop {
   RuntimeState& sim;
   collision::CollisionPredictor predictor;
   haptics::SafetyFilter safety;
-  double period_s;
   bool connected_once = false;
   bool in_contact = false;
-  std::uint64_t contact_epoch = 0;
   Eigen::Vector3d contact_point = Eigen::Vector3d::Zero(), contact_normal = Eigen::Vector3d::UnitZ();
   double contact_start_s = 0;
   bool waiting_for_model = false;

@@ -27,7 +27,6 @@ struct HapticState {
   PlainVector3 tip_m{}, tool_axis{0, 0, 1};
   PlainVector3 force_on_hand_N{};
   bool in_contact = false;
-  std::uint64_t contact_epoch = 0;
   PlainVector3 contact_point_m{}, contact_normal{};  ///< outward, at the first hit
   bool prediction_valid = false;                    ///< a predicted collision point ahead
   PlainVector3 predicted_point_m{}, predicted_normal{};

@@ -214,8 +214,6 @@ Simulation::Simulation(const geometry::TriangleSurface& organ, const SceneSettin
 
 Simulation::~Simulation() { delete impl_; }
 
-const collision::BoundingVolumeHierarchy& Simulation::hierarchy() const noexcept { return impl_->hierarchy; }
-
 void Simulation::set_haptic_tick_probe(const TickProbe& probe) noexcept { impl_->probe = probe; }
 
 RunSummary Simulation::run_virtual(const std::atomic<bool>* stop) {

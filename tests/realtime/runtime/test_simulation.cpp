@@ -74,7 +74,7 @@ TEST(Simulation, VirtualPalpationTouchesPressesAndReleases) {
   EXPECT_GE(run.work.model_prebuilds, path.palpations);
   EXPECT_EQ(run.forces.model_latency_max_s, 0.0);
   // Benign trajectory: no safety intervention, and a force of the right size: pressing 3 mm
-  // into 10 kPa tissue with a 2.5 mm punch, F ≈ 8 G a δ/(3 − 3ν)... order 0.1 N.
+  // into 10 kPa tissue with a 2.5 mm punch: a half-space gives F = 2 a δ E/(1 − ν²) ≈ 0.19 N.
   EXPECT_EQ(run.safety.interventions(), 0) << "clamped " << run.safety.clamped << " rate " << run.safety.rate_limited
                                            << " stale " << run.safety.stale << " nan " << run.safety.non_finite;
   EXPECT_GT(run.forces.max_force_N, 0.01);

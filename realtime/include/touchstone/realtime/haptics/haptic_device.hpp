@@ -29,6 +29,16 @@ struct DeviceSample {
   bool fresh = true;
 };
 
+/// The last guard where a force leaves for hardware or a network peer: finite, and no larger
+/// than `max_force_N` [N] (non-finite → zero, larger → scaled down along its direction). The
+/// runtime's SafetyFilter has already done both; a backend applies this again because it
+/// cannot know who called it.
+inline Eigen::Vector3d bounded_force_N(const Eigen::Vector3d& force_N, double max_force_N) noexcept {
+  if (!force_N.allFinite()) return Eigen::Vector3d::Zero();
+  const double magnitude = force_N.norm();
+  return magnitude > max_force_N ? Eigen::Vector3d(force_N * (max_force_N / magnitude)) : force_N;
+}
+
 class HapticDevice {
  public:
   virtual ~HapticDevice() = default;

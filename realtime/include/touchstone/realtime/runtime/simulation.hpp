@@ -201,8 +201,6 @@ class Simulation {
   /// Runs lock-step on a virtual clock (study mode): deterministic, as fast as the work allows.
   RunSummary run_virtual(const std::atomic<bool>* stop = nullptr);
 
-  const collision::BoundingVolumeHierarchy& hierarchy() const noexcept;
-
   /// Instrumentation for tests: called right before and after every haptic tick, in the
   /// haptic thread (e.g. to count heap allocations inside the tick). Null: none.
   struct TickProbe {
