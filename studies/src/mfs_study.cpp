@@ -4,6 +4,7 @@
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 #include "touchstone/meshes/point_field_vtu.hpp"
+#include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
 #include "touchstone/studies/probes.hpp"
 #include "touchstone/studies/provenance.hpp"
@@ -121,6 +122,7 @@ std::string format_number(double value) {
 
 struct Organ {
   realtime::geometry::TriangleSurface surface;
+  mfs::ClampedSurface clamped;
   json info;
 };
 
@@ -158,8 +160,17 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   info["triangles"] = surface.triangles().size();
   info["area_m2"] = number(surface.area_m2());
   info["volume_m3"] = number(surface.volume_m3());
+  mfs::ClampedSurface clamped;
+  if (!study.clamped_group.empty()) {
+    meshes::SurfaceReadOptions group;
+    group.msh_groups = {study.clamped_group};
+    meshes::SurfaceMesh mesh = meshes::read_surface_mesh(path, group);
+    clamped = {std::move(mesh.vertices), std::move(mesh.triangles)};
+  }
+  info["clamped_group"] = study.clamped_group;
+  info["clamped_triangles"] = clamped.triangles.size();
   info["time_s"] = seconds_since(start);
-  return {std::move(surface), std::move(info)};
+  return {std::move(surface), std::move(clamped), std::move(info)};
 }
 
 Eigen::Vector3d study_contact_point(const MfsStudy& study) {
@@ -217,7 +228,10 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"patch_quadrature", {s.force.patch_radial_points, s.force.patch_angular_points}},
           {"cut_quadrature", {s.force.cut_polar_points, s.force.cut_azimuth_points}},
           {"volume_quadrature",
-           {s.force.volume_radial_points, s.force.volume_polar_points, s.force.volume_azimuth_points}}};
+           {s.force.volume_radial_points, s.force.volume_polar_points, s.force.volume_azimuth_points}},
+          {"extraction_shell", {s.force.extraction_inner_tool_radii, s.force.extraction_outer_local_radii}},
+          {"extraction_quadrature",
+           {s.force.extraction_radial_points, s.force.extraction_polar_points, s.force.extraction_azimuth_points}}};
 }
 
 json null_qoi() {
@@ -227,7 +241,11 @@ json null_qoi() {
           {"energy_J", nullptr},
           {"k_star", nullptr},
           {"forces_by_method_N",
-           {{"traction_integral", nullptr}, {"reaction", nullptr}, {"paper_partition", nullptr}, {"energy_along_tool", nullptr}}},
+           {{"traction_integral", nullptr},
+            {"traction_surface", nullptr},
+            {"reaction", nullptr},
+            {"paper_partition", nullptr},
+            {"energy_along_tool", nullptr}}},
           {"tool_stiffness_matrix_N_per_m", nullptr},
           {"probes", json::array()},
           {"min_rcond", nullptr}};
@@ -284,7 +302,7 @@ class CaseRunner {
 
  private:
   void solve(json& c, const mfs::ToolContact& contact, const mfs::LocalModelSettings& settings) const {
-    const mfs::LocalModel model = mfs::build_local_model(organ_.surface, contact, study_.material, settings);
+    const mfs::LocalModel model = mfs::build_local_model(organ_.surface, contact, study_.material, settings, organ_.clamped);
     const mfs::NodeCloud& cloud = model.cloud;
     json& params = c["params"];
     params["node_count"] = cloud.size();
@@ -295,7 +313,8 @@ class CaseRunner {
     c["qoi"]["min_rcond"] = number(model.system.status.min_rcond);
     c["diagnostics"] = {{"max_support_scale_used", number(model.system.status.max_support_scale)},
                         {"max_neighbours", model.system.status.max_neighbours},
-                        {"mean_neighbours", number(model.system.status.mean_neighbours)}};
+                        {"mean_neighbours", number(model.system.status.mean_neighbours)},
+                        {"clamped_quadrature_points", model.clamped_points}};
     json& time = c["time_s"];
     time["sprinkle"] = model.times.sprinkle_s;
     time["assembly"] = model.times.assembly_s;
@@ -335,7 +354,8 @@ class CaseRunner {
     qoi["energy_J"] = settings.force.energy ? number(f.energy_J) : json(nullptr);
     qoi["k_star"] = number(axial / (e * a * study_.depth_m));
     qoi["forces_by_method_N"] = {
-        {"traction_integral", vector_json(f.traction_integral_N)},
+        {"traction_integral", model.traction_available ? vector_json(f.traction_integral_N) : json(nullptr)},
+        {"traction_surface", vector_json(f.traction_surface_N)},
         {"reaction", settings.force.reaction ? vector_json(f.reaction_N) : json(nullptr)},
         {"paper_partition", vector_json(f.paper_partition_N)},
         {"energy_along_tool", settings.force.energy ? number(f.energy_force_N) : json(nullptr)}};
@@ -558,10 +578,16 @@ void read_local_model_sections(ConfigTable& config, mfs::LocalModelSettings& s) 
   f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
   f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
   f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
+  f.extraction_inner_tool_radii = force.number("extraction_inner_tool_radii", f.extraction_inner_tool_radii);
+  f.extraction_outer_local_radii = force.number("extraction_outer_local_radii", f.extraction_outer_local_radii);
+  f.extraction_radial_points = read_int(force, "extraction_radial_points", f.extraction_radial_points);
+  f.extraction_polar_points = read_int(force, "extraction_polar_points", f.extraction_polar_points);
+  f.extraction_azimuth_points = read_int(force, "extraction_azimuth_points", f.extraction_azimuth_points);
   // Unset, the haptic method follows the formulation (set above).
   f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
   f.reaction = force.boolean("reaction", f.reaction);
   f.energy = force.boolean("energy", f.energy);
+  f.traction = force.boolean("traction", f.traction);
 
 }
 
@@ -604,6 +630,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
     if (!fs::is_regular_file(path, ignored)) throw ConfigError(surface_key + ": no such file '" + path.string() + "'");
     study.surface_path = fs::absolute(path).lexically_normal().string();
   }
+  study.clamped_group = organ.string("clamped_group", study.surface_path.empty() ? "base" : "");
   // A few thousand triangles: fine (a/8) where the tool and the local ball are, coarse far away.
   g.edge_size_m = organ.quantity("edge_size", Dimension::length, g.tool_radius_m / 8);
   g.size_growth = organ.quantity("size_growth", Dimension::dimensionless, 0.2);
@@ -661,6 +688,7 @@ std::string resolved_config_toml(const MfsStudy& study) {
                        {"tool_radius", g.tool_radius_m},
                        {"contact_polar_angle", g.contact_polar_angle_rad}};
   toml::table organ;
+  organ.insert("clamped_group", study.clamped_group);
   if (study.surface_path.empty()) {
     organ.insert("edge_size", g.edge_size_m);
     organ.insert("size_growth", g.size_growth);
@@ -718,9 +746,15 @@ std::string resolved_config_toml(const MfsStudy& study) {
                             {"volume_radial_points", f.volume_radial_points},
                             {"volume_polar_points", f.volume_polar_points},
                             {"volume_azimuth_points", f.volume_azimuth_points},
+                            {"extraction_inner_tool_radii", f.extraction_inner_tool_radii},
+                            {"extraction_outer_local_radii", f.extraction_outer_local_radii},
+                            {"extraction_radial_points", f.extraction_radial_points},
+                            {"extraction_polar_points", f.extraction_polar_points},
+                            {"extraction_azimuth_points", f.extraction_azimuth_points},
                             {"haptic_method", name_of(force_methods, f.haptic_method)},
                             {"reaction", f.reaction},
-                            {"energy", f.energy}}},
+                            {"energy", f.energy},
+                            {"traction", f.traction}}},
       {"output", toml::table{{"vtu", study.write_vtu}}}};
   std::ostringstream text;
   text << "# " << study.name << ", resolved by `touchstone mfs`: every default filled in, quantities in SI (m, Pa, rad).\n"

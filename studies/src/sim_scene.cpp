@@ -110,10 +110,12 @@ SimScene read_sim_scene(const std::string& path) {
                          ? realtime::mfs::PatchCondition::bonded
                          : realtime::mfs::PatchCondition::frictionless;
 
-  // The engine: the same sections as `touchstone mfs`, under [model]. The energy extraction is
-  // a study quantity (a volume quadrature per solve): off unless asked for.
+  // The engine: the same sections as `touchstone mfs`, under [model]. The energy and traction
+  // extractions are study quantities (a volume quadrature per solve, a shell quadrature per
+  // build): off unless asked for; a traction_integral haptic method needs traction = true.
   ConfigTable model = config.table("model");
   s.model.force.energy = false;
+  s.model.force.traction = false;
   read_local_model_sections(model, s.model);
   ConfigTable sprinkling = model.table("sprinkling");
   s.model.sprinkling.node_count = read_int(sprinkling, "node_count", 60);

@@ -77,6 +77,32 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
         system.stiffness.block<3, 3>(3 * mls.neighbours[a], 3 * mls.neighbours[b]) += product.block<3, 3>(3 * a, 3 * b);
   }
 
+  // The tool-patch nodes' rows of the elastic K, before the constraints are added (eq. 9's
+  // K_aa U_a + K_ab U_b), and ∫_patch h_a dA, the weight that turns a row into a traction.
+  for (std::size_t j = 0; j < cloud.size(); ++j)
+    if (cloud.kinds[j] == NodeKind::tool_patch) system.patch_nodes.push_back(static_cast<int>(j));
+  system.patch_node_rows.resize(3 * static_cast<Eigen::Index>(system.patch_nodes.size()), 3 * n);
+  for (std::size_t i = 0; i < system.patch_nodes.size(); ++i)
+    system.patch_node_rows.middleRows<3>(3 * static_cast<Eigen::Index>(i)) =
+        system.stiffness.middleRows<3>(3 * static_cast<Eigen::Index>(system.patch_nodes[i]));
+  const Eigen::Index patch_count = static_cast<Eigen::Index>(system.patch_nodes.size());
+  system.patch_node_shape_integral_m2.assign(system.patch_nodes.size(), 0.0);
+  system.patch_node_mass_m2.setZero(patch_count, patch_count);
+  std::vector<std::pair<Eigen::Index, double>> on_patch;
+  for (std::size_t q = 0; q < patch.points.size(); ++q) {
+    evaluate_mls(patch.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls, Derivatives::values, mls);
+    if (mls.status != MlsStatus::ok) return fail(mls.status, static_cast<int>(volume.points.size() + q));
+    on_patch.clear();
+    for (std::size_t a = 0; a < mls.neighbours.size(); ++a) {
+      const auto it = std::lower_bound(system.patch_nodes.begin(), system.patch_nodes.end(), mls.neighbours[a]);
+      if (it != system.patch_nodes.end() && *it == mls.neighbours[a]) on_patch.emplace_back(it - system.patch_nodes.begin(), mls.value[a]);
+    }
+    for (const auto& [i, hi] : on_patch) {
+      system.patch_node_shape_integral_m2[i] += patch.weights[q] * hi;
+      for (const auto& [j, hj] : on_patch) system.patch_node_mass_m2(i, j) += patch.weights[q] * hi * hj;
+    }
+  }
+
   // The constraint P u = P ū on a surface. Penalty: α ∫ (P u)·v. Nitsche adds the consistency
   // terms −∫ (σ(u)n)·P v − ∫ (σ(v)n)·P u; with T_a the traction of shape function a, the
   // block (a, b) of K gains w (α h_a h_b P − h_a P T_b − T_aᵀ P h_b), and the boundary force

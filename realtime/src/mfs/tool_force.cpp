@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 
 namespace touchstone::realtime::mfs {
@@ -89,6 +90,35 @@ PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const Too
       q.points.push_back(f.centre + length * d);
       q.normals.push_back(d);
       q.weights.push_back(length * length * std::sin(theta) * theta_max * w[i] * 2 * pi / azimuth_points);
+    }
+  }
+  return q;
+}
+
+double extraction_cutoff(double distance_m, double inner_m, double outer_m, double* slope_per_m) {
+  const double width = outer_m - inner_m, s = std::clamp((distance_m - inner_m) / width, 0.0, 1.0);
+  // 1 − (10s³ − 15s⁴ + 6s⁵): C² at both ends, so ∇w is continuous where it switches on and off.
+  if (slope_per_m) *slope_per_m = -30 * s * s * (1 - s) * (1 - s) / width;
+  return 1 - s * s * s * (10 - 15 * s + 6 * s * s);
+}
+
+PatchQuadrature extraction_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double inner_m,
+                                      double outer_m, int radial_points, int polar_points, int azimuth_points) {
+  // Shells of radius ρ_k (Gauss–Legendre in [inner, outer]), each the cut-surface quadrature of
+  // radius ρ_k: the organ ∩ sphere(c, ρ) is found per azimuth, so the free surface crossing the
+  // shell is resolved instead of smeared by points that fall outside.
+  PatchQuadrature q;
+  std::vector<double> x, w;
+  gauss_legendre(radial_points, x, w);
+  for (int k = 0; k < radial_points; ++k) {
+    const double rho = inner_m + (outer_m - inner_m) * x[k];
+    double slope = 0;
+    extraction_cutoff(rho, inner_m, outer_m, &slope);
+    const PatchQuadrature shell = cut_quadrature(organ, contact, rho, polar_points, azimuth_points);
+    for (std::size_t p = 0; p < shell.points.size(); ++p) {
+      q.points.push_back(shell.points[p]);
+      q.normals.push_back(slope * shell.normals[p]);  // ∇w = w'(ρ) (x − c)/ρ
+      q.weights.push_back(shell.weights[p] * (outer_m - inner_m) * w[k]);
     }
   }
   return q;

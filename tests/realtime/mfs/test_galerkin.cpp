@@ -55,6 +55,54 @@ TEST(Galerkin, StiffnessIsSymmetricAndTheToolBalancesTheCut) {
   }
 }
 
+TEST(Galerkin, PatchNodeRowsAreTheConstraintTractionWeightedByTheirShapeFunctions) {
+  // Eq. 9 in the weak form (local_model's paper_map): a patch node's elastic row applied to the
+  // solution, (K_el U)_a, is ∫_patch h_a λ dA with λ = α P (U_tool − u_h) the penalty traction —
+  // computed here independently from the patch quadrature and the MLS values.
+  const LocalModelSettings settings = galerkin_settings(100);
+  const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+  ASSERT_TRUE(model.ok()) << model.status;
+  const Eigen::Vector3d push = depth_m * pole_contact().direction;
+  const LocalSolution solution = solve_local_model(model, push);
+  ASSERT_EQ(solution.status, "ok");
+  const GalerkinSystem& g = model.galerkin;
+  ASSERT_GE(g.patch_nodes.size(), 8u);
+  const PatchQuadrature patch =
+      patch_quadrature(hemisphere(), pole_contact(), settings.force.patch_radial_points, settings.force.patch_angular_points);
+  const Eigen::Vector3d d = pole_contact().direction;
+  std::vector<Eigen::Vector3d> expected(g.patch_nodes.size(), Eigen::Vector3d::Zero());
+  std::vector<double> shape_integral(g.patch_nodes.size(), 0.0);
+  Eigen::MatrixXd mass = Eigen::MatrixXd::Zero(g.patch_node_mass_m2.rows(), g.patch_node_mass_m2.cols());
+  MlsEvaluation mls;
+  for (std::size_t q = 0; q < patch.points.size(); ++q) {
+    evaluate_mls(patch.points[q], model.cloud.positions, model.cloud.radii, {}, settings.collocation.mls,
+                 Derivatives::values, mls);
+    ASSERT_EQ(mls.status, MlsStatus::ok);
+    Eigen::Vector3d u = Eigen::Vector3d::Zero();
+    for (std::size_t b = 0; b < mls.neighbours.size(); ++b)
+      u += mls.value[b] * solution.parameters.segment<3>(3 * mls.neighbours[b]);
+    const Eigen::Vector3d traction = g.penalty_Pa_per_m * d * d.dot(push - u);  // frictionless: P = d dᵀ
+    for (std::size_t i = 0; i < g.patch_nodes.size(); ++i)
+      for (std::size_t b = 0; b < mls.neighbours.size(); ++b)
+        if (mls.neighbours[b] == g.patch_nodes[i]) {
+          expected[i] += patch.weights[q] * mls.value[b] * traction;
+          shape_integral[i] += patch.weights[q] * mls.value[b];
+          for (std::size_t j = 0; j < g.patch_nodes.size(); ++j)
+            for (std::size_t c = 0; c < mls.neighbours.size(); ++c)
+              if (mls.neighbours[c] == g.patch_nodes[j]) mass(i, j) += patch.weights[q] * mls.value[b] * mls.value[c];
+        }
+  }
+  double largest = 0;
+  for (const Eigen::Vector3d& e : expected) largest = std::max(largest, e.norm());
+  ASSERT_GT(largest, 0.0);
+  for (std::size_t i = 0; i < g.patch_nodes.size(); ++i) {
+    const Eigen::Vector3d row_force = g.patch_node_rows.middleRows<3>(3 * static_cast<Eigen::Index>(i)) * solution.parameters;
+    EXPECT_LT((row_force - expected[i]).norm(), 1e-7 * largest) << "patch node " << g.patch_nodes[i];
+    EXPECT_NEAR(g.patch_node_shape_integral_m2[i], shape_integral[i], 1e-12 * shape_integral[i]);
+  }
+  EXPECT_LT((g.patch_node_mass_m2 - mass).norm(), 1e-12 * mass.norm());
+}
+
 TEST(Galerkin, ForceConvergesToTheFemFromAbove) {
   // Measured on this surface: reaction +259 %, +59 %, +22 % and energy +184 %, +39 %, +18 % at
   // N = 33, 103, 409 (touchstone mfs studies/mfs_b3_galerkin.toml goes on to +13 % / +7 % at

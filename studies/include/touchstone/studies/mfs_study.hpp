@@ -28,6 +28,10 @@ struct MfsStudy {
   /// A closed triangle surface (gmsh .msh) to use as the organ instead; absolute path (the
   /// reader resolves relative paths against the config file's folder). Empty: generate.
   std::string surface_path;
+  /// The physical group of the organ's .msh held at u = 0 (realtime::mfs::ClampedSurface):
+  /// "base" for a generated benchmark (its clamped base; it matters when the local ball reaches
+  /// it, e.g. B5 near the base), none ("") by default for a surface file.
+  std::string clamped_group;
   /// Contact point on the organ surface [m]; unset: the benchmark's (R n at the polar angle).
   std::optional<Eigen::Vector3d> contact_point_m;
 

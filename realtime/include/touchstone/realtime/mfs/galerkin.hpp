@@ -53,6 +53,15 @@ struct GalerkinSystem {
   Eigen::Matrix<double, Eigen::Dynamic, 3> tool_rhs;
   Eigen::Matrix3d patch_tool_map = Eigen::Matrix3d::Zero();   ///< A_patch [N/m]
   Eigen::Matrix<double, 3, Eigen::Dynamic> patch_map, cut_map;  ///< M_patch, M_cut [N/m]
+  /// The paper's partition (eq. 9) in the weak form: the tool-patch nodes (ascending), their
+  /// rows of the elastic K (3 per node, before the constraints), ∫_patch h_a dA [m²] and
+  /// ∫_patch h_a h_b dA [m²]. Row a applied to the solution is ∫_patch h_a λ dA [N], λ the
+  /// constraint's traction; local_model's paper_map weights the rows so that the weighted shape
+  /// functions sum to one on the patch.
+  std::vector<int> patch_nodes;
+  Eigen::MatrixXd patch_node_rows;
+  std::vector<double> patch_node_shape_integral_m2;
+  Eigen::MatrixXd patch_node_mass_m2;  ///< ∫_patch h_a h_b dA over the patch nodes [m²]
   double penalty_Pa_per_m = 0;
   MlsStatus status = MlsStatus::ok;
   int failed_point = -1;  ///< index of the quadrature point (volume, then patch, then cut) that failed

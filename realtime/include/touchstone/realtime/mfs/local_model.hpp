@@ -9,6 +9,7 @@
 /// what one tool displacement produces.
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/clamped_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
@@ -25,10 +26,17 @@ namespace touchstone::realtime::mfs {
 
 /// The four force extractions of DESIGN.md §4.6. They differ at finite N and must agree as N grows.
 enum class ForceMethod : std::uint8_t {
-  traction_integral,  ///< (a) ∫_patch σ(u_h) n dA
+  /// (a) ∫_patch σ(u_h) n dA, evaluated in its domain form ∫_Ω σ(u_h) ∇w dV (w = 1 on the
+  /// patch, 0 on the cut: extraction_quadrature). The surface form is reported too
+  /// (ToolForces::traction_surface_N); it does not converge at the singular punch edge.
+  traction_integral,
   reaction,           ///< (b) −∫_cut σ(u_h) n dA: equilibrium of the local domain
   energy,             ///< (c) F·U_tool = 2U, U = ½∫_Ω σ:ε dV: the component along U_tool only
-  paper_partition,    ///< (d) patch rows K_aa U_a + K_ab U_b scaled by tributary area (paper eq. 9)
+  /// (d) the paper's partition, eq. 9, rows scaled by the patch nodes' shares: collocation —
+  /// each patch node's traction row × its tributary area; Galerkin — each patch node's elastic
+  /// row (K_el U)_a = ∫_patch h_a λ dA (a force already) × s_a, where Σ_a s_a h_a ≈ 1 on the
+  /// patch (least squares; s_a = 1 for interpolating shape functions: the FEM's reaction).
+  paper_partition,
 };
 
 std::string to_string(ForceMethod method);
@@ -39,12 +47,20 @@ struct ForceSettings {
   int cut_polar_points = 24, cut_azimuth_points = 48;
   int volume_radial_points = 32, volume_polar_points = 24, volume_azimuth_points = 32;
   /// The method that defines K_t (the haptic force). Energy is not linear in U_tool: not allowed;
-  /// reaction needs `reaction` on.
+  /// reaction needs `reaction` on, traction_integral needs `traction` on.
   ForceMethod haptic_method = ForceMethod::reaction;
   /// Compute the reaction (a cut-surface quadrature) and the energy force (a volume
   /// quadrature): tens of milliseconds, for studies, not for the model loop.
   bool reaction = true;
   bool energy = true;
+  /// Compute the traction integral's domain form (a shell of ~9k quadrature points); a scene
+  /// whose haptic force is the reaction can skip it. Off, its map is zero.
+  bool traction = true;
+  /// The shell of the traction integral's domain form: inner = extraction_inner_tool_radii × a,
+  /// outer = extraction_outer_local_radii × L; w goes from 1 to 0 across it. Inner > 1 keeps the
+  /// shell off the punch edge; outer < 1 keeps it off the cut.
+  double extraction_inner_tool_radii = 1.5, extraction_outer_local_radii = 0.8;
+  int extraction_radial_points = 8, extraction_polar_points = 24, extraction_azimuth_points = 48;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -100,9 +116,15 @@ struct LocalModel {
   /// Nodal parameters for U_tool = e_x, e_y, e_z (3N × 3) and for the loads alone (3N).
   Eigen::MatrixXd unit_response;
   Eigen::VectorXd load_response;
-  /// Force maps U ↦ F (3 × 3N) of the linear methods: traction integral, reaction, paper.
-  Eigen::Matrix<double, 3, Eigen::Dynamic> traction_map, reaction_map, paper_map;
+  /// Force maps U ↦ F (3 × 3N) of the linear methods: traction integral (domain form), its
+  /// surface form ∫_patch σ(u_h) n dA, reaction, paper.
+  Eigen::Matrix<double, 3, Eigen::Dynamic> traction_map, traction_surface_map, reaction_map, paper_map;
   PatchQuadrature volume;  ///< energy quadrature (empty when ForceSettings::energy is off)
+  /// Quadrature points of the clamped surface inside the ball (0: none reached, or none given).
+  int clamped_points = 0;
+  /// False when the traction integral's shell would reach a clamped surface (its cutoff must
+  /// vanish on every fixed boundary but the patch): traction_map is then zero, not a force.
+  bool traction_available = true;
   /// K_t [N/m]: F = K_t U_tool + F_loads, by the haptic method.
   Eigen::Matrix3d tool_stiffness_N_per_m = Eigen::Matrix3d::Zero();
   Eigen::Vector3d load_force_N = Eigen::Vector3d::Zero();
@@ -116,14 +138,20 @@ struct LocalModel {
   bool ok() const { return status == "ok"; }
 };
 
-/// Builds the local model of `contact` on `organ`. Throws std::invalid_argument for invalid
-/// settings, material or contact (naming the field); numerical failures end in `status`.
+/// Builds the local model of `contact` on `organ`. `clamped`: parts of the organ surface held
+/// at u = 0 (Galerkin only; a collocation model whose ball reaches them fails with a status).
+/// Throws std::invalid_argument for invalid settings, material, contact or clamped surface
+/// (naming the field); numerical failures end in `status`.
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact,
-                             const Material& material, const LocalModelSettings& settings);
+                             const Material& material, const LocalModelSettings& settings,
+                             const ClampedSurface& clamped = {});
 
 /// Forces on the tissue from the tool [N] (the tool feels the opposite).
 struct ToolForces {
-  Eigen::Vector3d traction_integral_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d traction_integral_N = Eigen::Vector3d::Zero();  ///< (a), domain form
+  /// (a) in its surface form, ∫_patch σ(u_h) n dA on the patch quadrature: a diagnostic of how
+  /// much of the edge stress the field resolves.
+  Eigen::Vector3d traction_surface_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d reaction_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d paper_partition_N = Eigen::Vector3d::Zero();
   double energy_J = 0;

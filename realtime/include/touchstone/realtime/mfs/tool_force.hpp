@@ -39,6 +39,18 @@ PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const Too
 PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
                                   int radial_points = 32, int polar_points = 24, int azimuth_points = 32);
 
+/// The cutoff w of the domain form of the traction integral: 1 for ρ ≤ inner, 0 for ρ ≥ outer,
+/// a C² quintic in between; `slope_per_m` (if given) receives dw/dρ [1/m].
+double extraction_cutoff(double distance_m, double inner_m, double outer_m, double* slope_per_m = nullptr);
+/// The traction integral in its domain form (Babuška–Miller extraction): with w = 1 on the tool
+/// patch and 0 on the cut, div σ = 0 and σn = 0 on the free surface, the divergence theorem
+/// gives ∫_patch σn dA = ∫_Ω σ ∇w dV. Only the shell inner < |x − c| < outer contributes, away
+/// from the punch edge whose r^(−1/2) stress a smooth MLS field cannot carry pointwise; the
+/// error is then that of the stresses in the shell, which converges. Points of that shell with
+/// "normals" ∇w [1/m] and weights [m³], so surface_traction_map on it is this integral [N].
+PatchQuadrature extraction_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double inner_m,
+                                      double outer_m, int radial_points = 8, int polar_points = 24,
+                                      int azimuth_points = 48);
 /// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N); on the patch
 /// quadrature it is the force of the tool on the tissue. Returns false
 /// (and leaves `map` empty) when a shape-function evaluation fails at a quadrature point.
