@@ -320,6 +320,7 @@ class CaseRunner {
     time["assembly"] = model.times.assembly_s;
     time["factorize"] = model.times.factorize_s;
     time["condense"] = model.times.condense_s;
+    time["force_diagnostics"] = model.times.diagnostics_s;  // the traction integral when not haptic; not in "build"
     // One build serves every tool displacement (the factorisation and K_t are part of it), so
     // "solve" is what a new U_tool costs: combining the stored unit responses.
     time["build"] = model.times.total_s;

@@ -183,7 +183,7 @@ LocalModelSettings paper_settings() {
 
 ForceMethod default_haptic_method(Formulation formulation, bool paper_mode) {
   if (paper_mode) return ForceMethod::paper_partition;
-  return formulation == Formulation::galerkin ? ForceMethod::reaction : ForceMethod::traction_integral;
+  return formulation == Formulation::galerkin ? ForceMethod::reaction : ForceMethod::paper_partition;
 }
 
 namespace {
@@ -221,6 +221,30 @@ bool shell_clear_of(const PatchQuadrature& clamped, const geometry::TriangleSurf
   return true;
 }
 
+const char* const traction_failure = "a point of the traction integral's extraction shell is outside every support";
+
+/// The traction integral's map (zero when unavailable: switched off, or the shell would reach a
+/// clamped surface). False when a shell point is outside every support.
+bool traction_map(const geometry::TriangleSurface& organ, LocalModel& model) {
+  if (!model.traction_available) {
+    model.traction_map.setZero(3, 3 * static_cast<Eigen::Index>(model.cloud.size()));
+    return true;
+  }
+  return surface_traction_map(model.cloud, model.material, model.settings.collocation.mls,
+                              force_extraction_shell(organ, model.contact, model.settings), model.traction_map);
+}
+
+/// The traction integral as a diagnostic, after the model is ready: timed apart, and a failure
+/// marks it unavailable instead of failing the model.
+void diagnostic_traction_map(const geometry::TriangleSurface& organ, LocalModel& model) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!traction_map(organ, model)) {
+    model.traction_available = false;
+    model.traction_map.setZero(3, 3 * static_cast<Eigen::Index>(model.cloud.size()));
+  }
+  model.times.diagnostics_s = seconds_since(start);
+}
+
 /// The Galerkin branch of build_local_model: quadratures first (the stiffness is an integral),
 /// then K, LDLT, the unit responses and the penalty force maps.
 LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel model, const ClampedSurface& clamped,
@@ -247,8 +271,6 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   model.traction_available = f.traction && shell_clear_of(base, organ, model.contact, settings);
   if (f.haptic_method == ForceMethod::traction_integral && !model.traction_available)
     return fail("the traction integral's shell reaches a clamped surface: use haptic_method = reaction");
-  const PatchQuadrature shell =
-      model.traction_available ? force_extraction_shell(organ, model.contact, settings) : PatchQuadrature{};
   GalerkinSettings galerkin = settings.galerkin;
   galerkin.mls = settings.collocation.mls;
   model.galerkin = assemble_galerkin(model.cloud, model.material, model.contact, model.volume, patch, cut, galerkin);
@@ -272,8 +294,8 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   const MlsSettings& mls = settings.collocation.mls;
   if (!surface_traction_map(model.cloud, model.material, mls, patch, model.traction_surface_map))
     return fail("a tool-patch quadrature point is outside every support");
-  if (!surface_traction_map(model.cloud, model.material, mls, shell, model.traction_map))
-    return fail("a point of the traction integral's extraction shell is outside every support");
+  const bool traction_is_haptic = f.haptic_method == ForceMethod::traction_integral;
+  if (traction_is_haptic && !traction_map(organ, model)) return fail(traction_failure);
   model.reaction_map = model.galerkin.cut_map;  // minus the penalty force of the cut and the clamped surface
   // Eq. 9 in the weak form: the patch nodes' elastic rows (K_el U)_a = ∫_patch h_a λ dA, each
   // weighted by s_a, the patch nodes' share of the patch: Σ_a s_a h_a ≈ 1 on it in least squares
@@ -299,6 +321,7 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   if (!f.energy) model.volume = PatchQuadrature{};
   model.times.condense_s = seconds_since(step);
   model.times.total_s = seconds_since(start);
+  if (!traction_is_haptic) diagnostic_traction_map(organ, model);
   return model;
 }
 
@@ -365,9 +388,9 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   const PatchQuadrature patch = patch_quadrature(organ, contact, f.patch_radial_points, f.patch_angular_points);
   if (!surface_traction_map(model.cloud, material, mls, patch, model.traction_surface_map))
     return fail("a tool-patch quadrature point is outside every support");
-  const PatchQuadrature shell = f.traction ? force_extraction_shell(organ, contact, settings) : PatchQuadrature{};
-  if (!surface_traction_map(model.cloud, material, mls, shell, model.traction_map))
-    return fail("a point of the traction integral's extraction shell is outside every support");
+  model.traction_available = f.traction;
+  const bool traction_is_haptic = f.haptic_method == ForceMethod::traction_integral;
+  if (traction_is_haptic && !traction_map(organ, model)) return fail(traction_failure);
   if (f.reaction) {
     const PatchQuadrature cut =
         cut_quadrature(organ, contact, settings.sprinkling.local_radius_m, f.cut_polar_points, f.cut_azimuth_points);
@@ -403,6 +426,7 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
     return fail("the tool stiffness is not finite");
   model.times.condense_s = seconds_since(step);
   model.times.total_s = seconds_since(start);
+  if (!traction_is_haptic) diagnostic_traction_map(organ, model);
   return model;
 }
 

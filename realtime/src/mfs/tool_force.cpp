@@ -74,7 +74,7 @@ double first_exit(Inside inside, double t_max, int steps = 64) {
 }  // namespace
 
 PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
-                               int polar_points, int azimuth_points) {
+                               int polar_points, int azimuth_points, int marching_steps) {
   PatchQuadrature q;
   const ContactFrame f = contact_frame(organ, contact);
   const double length = local_radius_m;
@@ -83,7 +83,8 @@ PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const Too
   for (int k = 0; k < azimuth_points; ++k) {
     const double phi = 2 * pi * (k + 0.5) / azimuth_points;
     const double theta_max = first_exit(
-        [&](double theta) { return organ.signed_distance(f.centre + length * direction(f, theta, phi)) < 0; }, pi, 128);
+        [&](double theta) { return organ.signed_distance(f.centre + length * direction(f, theta, phi)) < 0; }, pi,
+        marching_steps);
     for (int i = 0; i < polar_points; ++i) {
       const double theta = theta_max * x[i];
       const Eigen::Vector3d d = direction(f, theta, phi);
@@ -114,7 +115,9 @@ PatchQuadrature extraction_quadrature(const geometry::TriangleSurface& organ, co
     const double rho = inner_m + (outer_m - inner_m) * x[k];
     double slope = 0;
     extraction_cutoff(rho, inner_m, outer_m, &slope);
-    const PatchQuadrature shell = cut_quadrature(organ, contact, rho, polar_points, azimuth_points);
+    // 32 marching steps in the polar angle: the shells are inside the local ball, where the
+    // organ's surface crosses each once (the cut needs 128 for far, folded surfaces).
+    const PatchQuadrature shell = cut_quadrature(organ, contact, rho, polar_points, azimuth_points, 32);
     for (std::size_t p = 0; p < shell.points.size(); ++p) {
       q.points.push_back(shell.points[p]);
       q.normals.push_back(slope * shell.normals[p]);  // ∇w = w'(ρ) (x − c)/ρ

@@ -397,6 +397,7 @@ TEST(LocalModelDegenerate, InvalidSettingsAreNamed) {
 
 TEST(LocalModel, ToolStiffnessIsTheCondensation) {
   LocalModelSettings settings = small_settings();
+  settings.force.haptic_method = ForceMethod::traction_integral;  // K_t through the traction map
   settings.sprinkling.oversampling = 1;  // square: K p = f holds row by row
   const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
   ASSERT_TRUE(model.ok()) << model.status;

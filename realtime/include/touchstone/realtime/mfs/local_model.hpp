@@ -96,13 +96,17 @@ struct LocalModelSettings {
 LocalModelSettings paper_settings();
 
 /// The haptic force method that suits a formulation: the reaction for the weak form (its
-/// constraint force, which balances the cut exactly), the traction integral for collocation
-/// (whose reaction on the cut is off by hundreds of per cent), eq. 9 for the paper's model.
+/// constraint force, which balances the cut exactly); for collocation (whose reaction on the cut
+/// is off by hundreds of per cent) and the paper's model, the paper's partition (eq. 9) — cheap,
+/// where the traction integral's domain form costs a shell quadrature (~50 ms at N = 34).
 ForceMethod default_haptic_method(Formulation formulation, bool paper_mode);
 
 /// Wall times of a build [s].
 struct BuildTimes {
   double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0, total_s = 0;
+  /// The traction integral's shell when it is only a diagnostic (not the haptic method):
+  /// computed after the model is ready and not part of total_s.
+  double diagnostics_s = 0;
 };
 
 struct LocalModel {

@@ -29,8 +29,10 @@ PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const T
 /// surface), with normals pointing out of the local domain (radially). Per azimuth the polar
 /// range runs from the inward normal to where the sphere leaves the organ (found by bisection
 /// on the signed distance), with Gauss–Legendre in the polar angle: no masked cells.
+/// `marching_steps`: steps in the polar angle before the bisection (a surface that leaves and
+/// re-enters the sphere within one step is missed).
 PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
-                               int polar_points = 24, int azimuth_points = 48);
+                               int polar_points = 24, int azimuth_points = 48, int marching_steps = 128);
 
 /// Volume quadrature of Ω = organ ∩ ball(c, L): per direction (polar, azimuth about the inward
 /// normal) the ray from c is cut where it leaves the organ or reaches L, with Gauss–Legendre in
