@@ -6,6 +6,14 @@
 // the element's order for smooth solutions (tested), and at first order in the edge size for the
 // punch (the r^(1/2) edge singularity), which the convergence study measures.
 //
+// Near-incompressibility (DESIGN.md §5.3): the option Formulation::mixed_p0disc adds a
+// discontinuous pressure per cell and eliminates it cell by cell (static condensation), so the
+// global system stays SPD in the displacement alone. The pressure is constant per cell (P0),
+// not the linear P1disc that suits Q2 hexahedra: on these affine tetrahedra div u of a P2 field
+// is already linear on each cell, so projecting it onto P1disc changes nothing and P2–P1disc is
+// the displacement formulation, locking included (measured: identical punch forces). P2–P0
+// imposes one divergence constraint per cell instead of four.
+//
 // The parallel layout follows step-40 on a parallel::shared::Triangulation: every rank holds the
 // whole mesh (cheap at reference sizes, and it keeps probe evaluation and patch bookkeeping
 // simple), assembles its own cells, and the linear algebra is distributed.
@@ -74,10 +82,16 @@ class FieldFunction : public Function<dim> {
   VectorField field_;
 };
 
-/// Stress σ = λ tr(ε) I + 2μ ε (six components, Voigt order xx yy zz yz xz xy) and von Mises.
+/// Stress (six components, Voigt order xx yy zz yz xz xy) and von Mises. Displacement
+/// formulation: σ = λ tr(ε) I + 2μ ε. Mixed: σ = 2μ dev ε + p I with the cell's condensed
+/// pressure p = κ Π₀(div u) [Pa], the stress the discrete equations are in equilibrium with
+/// (κ tr ε pointwise would bring back the locked, oscillating pressure); p is written as
+/// mean_stress_Pa (= tr σ / 3, positive in tension).
 class StressPostprocessor : public DataPostprocessor<dim> {
  public:
-  StressPostprocessor(double lambda, double mu) : lambda_(lambda), mu_(mu) {}
+  /// `cell_pressures`: null for the displacement formulation, else p [Pa] by active cell index.
+  StressPostprocessor(double lambda, double mu, const std::vector<double>* cell_pressures = nullptr)
+      : lambda_(lambda), mu_(mu), pressures_(cell_pressures) {}
 
   void evaluate_vector_field(const DataPostprocessorInputs::Vector<dim>& inputs,
                              std::vector<Vector<double>>& computed) const override {
@@ -86,8 +100,15 @@ class StressPostprocessor : public DataPostprocessor<dim> {
       SymmetricTensor<2, dim> strain;
       for (int i = 0; i < dim; ++i)
         for (int j = i; j < dim; ++j) strain[i][j] = 0.5 * (grad[i][j] + grad[j][i]);
-      const SymmetricTensor<2, dim> stress =
-          lambda_ * trace(strain) * unit_symmetric_tensor<dim>() + 2 * mu_ * strain;
+      SymmetricTensor<2, dim> stress;
+      if (pressures_) {
+        const auto cell = inputs.template get_cell<dim>();
+        const double p = (*pressures_)[cell->active_cell_index()];
+        stress = 2 * mu_ * deviator(strain) + p * unit_symmetric_tensor<dim>();
+        computed[q][7] = p;
+      } else {
+        stress = lambda_ * trace(strain) * unit_symmetric_tensor<dim>() + 2 * mu_ * strain;
+      }
       const SymmetricTensor<2, dim> dev = deviator(stress);
       computed[q][0] = stress[0][0];
       computed[q][1] = stress[1][1];
@@ -99,18 +120,21 @@ class StressPostprocessor : public DataPostprocessor<dim> {
     }
   }
   std::vector<std::string> get_names() const override {
-    return {"stress_xx_Pa", "stress_yy_Pa", "stress_zz_Pa", "stress_yz_Pa",
-            "stress_xz_Pa", "stress_xy_Pa", "von_mises_Pa"};
+    std::vector<std::string> names{"stress_xx_Pa", "stress_yy_Pa", "stress_zz_Pa", "stress_yz_Pa",
+                                   "stress_xz_Pa", "stress_xy_Pa", "von_mises_Pa"};
+    if (pressures_) names.push_back("mean_stress_Pa");
+    return names;
   }
   std::vector<DataComponentInterpretation::DataComponentInterpretation>
   get_data_component_interpretation() const override {
     return std::vector<DataComponentInterpretation::DataComponentInterpretation>(
-        7, DataComponentInterpretation::component_is_scalar);
+        get_names().size(), DataComponentInterpretation::component_is_scalar);
   }
   UpdateFlags get_needed_update_flags() const override { return update_gradients; }
 
  private:
   double lambda_, mu_;
+  const std::vector<double>* pressures_;
 };
 
 double elapsed(Timer& timer) {
@@ -145,7 +169,9 @@ class ElasticitySolver {
         quadrature_(problem.solver.degree + 1),
         face_quadrature_(problem.solver.degree + 1),
         lambda_(problem.material.lame_lambda_Pa()),
-        mu_(problem.material.shear_modulus_Pa()) {}
+        mu_(problem.material.shear_modulus_Pa()),
+        kappa_(lambda_ + 2 * mu_ / 3),
+        mixed_(problem.solver.formulation == Formulation::mixed_p0disc) {}
 
   ElasticitySolution run() {
     Timer timer(comm_);
@@ -157,6 +183,8 @@ class ElasticitySolver {
     assemble();
     result_.assembly_s = elapsed(timer);
     solve();
+    // The solver name is what the study JSON records about the numerics: name the formulation.
+    if (mixed_) result_.solver_name += ", mixed P2-P0 (pressure condensed per cell)";
     result_.solve_s = elapsed(timer);
     postprocess();
     result_.postprocess_s = elapsed(timer);
@@ -276,8 +304,18 @@ class ElasticitySolver {
     }
   }
 
-  /// K_c = ∫ (2μ ε(φ_i):ε(φ_j) + λ div φ_i div φ_j) dx, using the symmetry of K_c.
-  void cell_matrix(const FEValues<dim>& fe_values, FullMatrix<double>& matrix) const {
+  /// Displacement formulation: K_c = ∫ (2μ ε(φ_i):ε(φ_j) + λ div φ_i div φ_j) dx.
+  /// Mixed: K_c = ∫ 2μ dev ε(φ_i):dev ε(φ_j) dx + κ G_i G_j / |K| with G_j = ∫_K div φ_j dx, the
+  /// general κ Gᵀ M⁻¹ G of a condensed discontinuous pressure with M = |K| for P0: the pressure
+  /// p = κ Π₀(div u) = κ G·u_c / |K| is eliminated. `pressure`, when given, receives the row
+  /// κ G / |K| [Pa/m] that recovers p from the cell's displacement.
+  /// (With Π = identity the two agree: ε:ε = dev ε:dev ε + (tr ε)²/3 and λ = κ − 2μ/3.)
+  void cell_matrix(const FEValues<dim>& fe_values, FullMatrix<double>& matrix,
+                   Vector<double>* pressure = nullptr) const {
+    if (mixed_) {
+      mixed_cell_matrix(fe_values, matrix, pressure);
+      return;
+    }
     const FEValuesExtractors::Vector u(0);
     const unsigned int n = fe_.n_dofs_per_cell();
     std::vector<SymmetricTensor<2, dim>> strain(n);
@@ -295,6 +333,36 @@ class ElasticitySolver {
     }
     for (unsigned int i = 0; i < n; ++i)
       for (unsigned int j = 0; j < i; ++j) matrix(i, j) = matrix(j, i);
+  }
+
+  void mixed_cell_matrix(const FEValues<dim>& fe_values, FullMatrix<double>& matrix,
+                         Vector<double>* pressure) const {
+    const FEValuesExtractors::Vector u(0);
+    const unsigned int n = fe_.n_dofs_per_cell();
+    std::vector<SymmetricTensor<2, dim>> deviatoric(n);
+    Vector<double> divergence_integral(n);  // G_j [m²]
+    double volume = 0;                      // |K| [m³]
+    matrix = 0;
+    for (const unsigned int q : fe_values.quadrature_point_indices()) {
+      const double jxw = fe_values.JxW(q);
+      for (unsigned int i = 0; i < n; ++i) {
+        const SymmetricTensor<2, dim> strain = fe_values[u].symmetric_gradient(i, q);
+        divergence_integral(i) += trace(strain) * jxw;
+        deviatoric[i] = deviator(strain);
+      }
+      volume += jxw;
+      for (unsigned int i = 0; i < n; ++i)
+        for (unsigned int j = i; j < n; ++j) matrix(i, j) += 2 * mu_ * (deviatoric[i] * deviatoric[j]) * jxw;
+    }
+    for (unsigned int i = 0; i < n; ++i)
+      for (unsigned int j = i; j < n; ++j)
+        matrix(i, j) += kappa_ * divergence_integral(i) * divergence_integral(j) / volume;
+    for (unsigned int i = 0; i < n; ++i)
+      for (unsigned int j = 0; j < i; ++j) matrix(i, j) = matrix(j, i);
+    if (pressure) {
+      *pressure = divergence_integral;
+      *pressure *= kappa_ / volume;
+    }
   }
 
   /// f_c = ∫ φ_i·b dx + ∫_Γt φ_i·t̄ ds.
@@ -390,13 +458,16 @@ class ElasticitySolver {
     const bool loaded = has_load();
     double energy = 0;
     Tensor<1, dim> force;
+    Vector<double> pressure_row(n);
+    if (mixed_) cell_pressures_.assign(triangulation_.n_active_cells(), 0.0);
     for (const auto& cell : dof_handler_.active_cell_iterators()) {
       if (!cell->is_locally_owned()) continue;
       fe_values.reinit(cell);
-      cell_matrix(fe_values, matrix);
+      cell_matrix(fe_values, matrix, mixed_ ? &pressure_row : nullptr);
       cell->get_dof_values(ghosted_solution_, u);
       matrix.vmult(ku, u);
       energy += 0.5 * (u * ku);
+      if (mixed_) cell_pressures_[cell->active_cell_index()] = pressure_row * u;
       if (!problem_.punch) continue;
       if (loaded) cell_load(cell, fe_values, face_values, load);
       cell->get_dof_indices(dofs);
@@ -468,7 +539,7 @@ class ElasticitySolver {
         dim, DataComponentInterpretation::component_is_part_of_vector);
     data_out.add_data_vector(ghosted_solution_, std::vector<std::string>(dim, "displacement_m"),
                              DataOut<dim>::type_dof_data, vector_field);
-    const StressPostprocessor stress(lambda_, mu_);
+    const StressPostprocessor stress(lambda_, mu_, mixed_ ? &cell_pressures_ : nullptr);
     data_out.add_data_vector(ghosted_solution_, stress);
     Vector<float> subdomain(triangulation_.n_active_cells());
     for (auto& s : subdomain) s = static_cast<float>(triangulation_.locally_owned_subdomain());
@@ -489,6 +560,9 @@ class ElasticitySolver {
   QGaussSimplex<dim> quadrature_;
   QGaussSimplex<dim - 1> face_quadrature_;
   double lambda_, mu_;
+  double kappa_;                 ///< bulk modulus κ = λ + 2μ/3 [Pa]
+  bool mixed_;                   ///< Formulation::mixed_p0disc
+  std::vector<double> cell_pressures_;  ///< p = κ Π₀(div u) [Pa] of the locally owned cells
   MshPhysicalNames names_;
 
   IndexSet locally_owned_, locally_relevant_;

@@ -40,6 +40,13 @@ void SolverParameters::validate() const {
   if (!(relative_tolerance > 0 && relative_tolerance < 1))
     reject("SolverParameters.relative_tolerance", relative_tolerance, "must be in (0, 1)");
   if (max_iterations < 1) reject("SolverParameters.max_iterations", max_iterations, "must be ≥ 1");
+  if (formulation != Formulation::displacement && formulation != Formulation::mixed_p0disc)
+    reject("SolverParameters.formulation", static_cast<int>(formulation), "is not a Formulation");
+  // P1–P0 locks (3 displacement dofs per vertex against about 6 cell constraints): the mixed
+  // option is the P2–P0 pair only.
+  if (formulation == Formulation::mixed_p0disc && degree != 2)
+    throw std::invalid_argument("SolverParameters.formulation = " + to_string(formulation) +
+                                " needs degree = 2 (got " + std::to_string(degree) + ")");
 }
 
 void ElasticityProblem::validate() const {
@@ -67,6 +74,20 @@ LinearSolver linear_solver_from_string(const std::string& name) {
   for (auto s : {LinearSolver::cg_amg_trilinos, LinearSolver::cg_gamg_petsc, LinearSolver::direct_mumps})
     if (to_string(s) == name) return s;
   throw std::invalid_argument("unknown solver '" + name + "' (choose cg_amg_trilinos, cg_gamg_petsc, direct_mumps)");
+}
+
+std::string to_string(Formulation formulation) {
+  switch (formulation) {
+    case Formulation::displacement: return "displacement";
+    case Formulation::mixed_p0disc: return "mixed_p0disc";
+  }
+  return "unknown";
+}
+
+Formulation formulation_from_string(const std::string& name) {
+  if (name == "displacement") return Formulation::displacement;
+  if (name == "mixed" || name == "mixed_p0disc") return Formulation::mixed_p0disc;
+  throw std::invalid_argument("unknown formulation '" + name + "' (choose displacement, mixed, mixed_p0disc)");
 }
 
 std::string to_string(Contact contact) { return contact == Contact::bonded ? "bonded" : "frictionless"; }

@@ -94,6 +94,7 @@ json problem_params(const Problem& p, const fem::SolverParameters& solver) {
   params["degree"] = solver.degree;
   params["solver"] = fem::to_string(solver.solver);
   params["relative_tolerance"] = solver.relative_tolerance;
+  params["formulation"] = fem::to_string(solver.formulation);  // part of the cache key
   return params;
 }
 

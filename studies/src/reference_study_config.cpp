@@ -54,6 +54,9 @@ ReferenceStudy read_reference_study(ConfigTable& config) {
 
   ConfigTable solver = config.table("solver");
   study.solver.degree = static_cast<unsigned int>(solver.integer("degree", study.solver.degree));
+  // "mixed" (P2–P0, condensed) for ν ≥ 0.49, where the displacement formulation locks.
+  study.solver.formulation = fem::formulation_from_string(
+      solver.choice("formulation", {"displacement", "mixed", "mixed_p0disc"}, "displacement"));
   study.solver.solver = fem::linear_solver_from_string(
       solver.choice("method", {"cg_amg_trilinos", "cg_gamg_petsc", "direct_mumps"}, "cg_amg_trilinos"));
   study.solver.relative_tolerance = solver.number("relative_tolerance", study.solver.relative_tolerance);

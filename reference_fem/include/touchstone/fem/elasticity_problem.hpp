@@ -60,8 +60,28 @@ enum class LinearSolver {
   direct_mumps,     ///< PETSc + MUMPS sparse LU (small cases)
 };
 
+/// How the volumetric (pressure) part of the elastic energy is discretised (DESIGN.md §5.3).
+///
+/// Both write σ = 2μ dev ε(u) + p I with the bulk modulus κ = λ + 2μ/3 [Pa]; they differ in p.
+enum class Formulation {
+  /// Pure displacement: p = κ div u pointwise, K_e = ∫ (2μ ε(φ_i):ε(φ_j) + λ div φ_i div φ_j) dV.
+  /// Locks as ν → 0.5 (the discrete divergence constraint is too rich for P2); the default, fine
+  /// for ν ≤ 0.45.
+  displacement,
+  /// Mixed u–p with a discontinuous piecewise-constant pressure (P2–P0 on tetrahedra), condensed
+  /// cell by cell: p = κ Π₀(div u), Π₀ the L2 projection onto constants on the cell, so
+  /// K_e = ∫ 2μ dev ε(φ_i):dev ε(φ_j) dV + κ G_i G_j / |K| with G_j = ∫_K div φ_j dV.
+  /// The system stays symmetric positive definite in u alone (same solvers, reaction and energy).
+  /// Locking-free: use it for ν ≥ 0.49. Needs degree = 2. (A linear discontinuous pressure would
+  /// change nothing on affine tetrahedra, where div u of P2 is already linear per cell.) The
+  /// price: P0 limits smooth solutions to L2 order 2 instead of 3; the punch force, first order
+  /// through its edge singularity, does not pay it.
+  mixed_p0disc,
+};
+
 struct SolverParameters {
   unsigned int degree = 2;              ///< polynomial degree of the simplex element P1 or P2
+  Formulation formulation = Formulation::displacement;  ///< see Formulation; mixed needs degree 2
   LinearSolver solver = LinearSolver::cg_amg_trilinos;
   double relative_tolerance = 1.0e-10;  ///< ‖r‖ ≤ tol · ‖b‖ for the iterative solvers
   unsigned int max_iterations = 5000;
@@ -137,6 +157,9 @@ class MpiSession {
 
 std::string to_string(LinearSolver solver);
 LinearSolver linear_solver_from_string(const std::string& name);  ///< throws, listing the names
+std::string to_string(Formulation formulation);  ///< "displacement", "mixed_p0disc"
+/// Accepts the to_string names and "mixed" (the recommended mixed formulation); throws listing them.
+Formulation formulation_from_string(const std::string& name);
 std::string to_string(Contact contact);
 Contact contact_from_string(const std::string& name);
 
