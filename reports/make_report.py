@@ -68,22 +68,140 @@ def finish(fig, ax, xlabel, ylabel, title, path, log_grid=False):
     plt.close(fig)
 
 
+def flags_text(c):
+    flags = get(c, "accuracy", "flags") or []
+    return ", ".join("`%s`" % f for f in flags) if flags else ""
+
+
+def problem_values_text(v):
+    """The problem's values in one line: benchmark, θ, E, ν, contact, angle to the normal, δ_max, L."""
+    if not v:
+        return ""
+    text = "%s" % v.get("benchmark")
+    if v.get("benchmark") == "B5":
+        text += " θ = %.0f°" % math.degrees(v.get("contact_polar_angle_rad") or 0.0)
+    text += ", E = %g Pa, ν = %g, %s" % (v.get("youngs_modulus_Pa"), v.get("poisson_ratio"), v.get("contact"))
+    if finite(v.get("angle_to_normal_rad")) and v["angle_to_normal_rad"] > 1e-9:
+        text += ", d %.0f° off the normal" % math.degrees(v["angle_to_normal_rad"])
+    text += ", δ_max = %g mm, L = %g mm" % (1e3 * v["depths_m"][-1], 1e3 * v.get("local_radius_m"))
+    return text
+
+
+def problems_section(w, results, problems, mfs_all, all_cases, plots):
+    """One row per problem variant, its notes, and one error-against-N plot and table each."""
+    w("## Problems")
+    w("")
+    w("| problem | values | replaced keys | reference | reference F [mN] | its error | MFS cases | ok | flagged | failed |")
+    w("|---|---|---|---|---|---|---|---|---|---|")
+    for p in problems:
+        name = p["name"]
+        group = [c for c in mfs_all if get(c, "params", "problem") == name]
+        ok = [c for c in group if c["status"] == "ok"]
+        flagged = [c for c in ok if get(c, "accuracy", "flags")]
+        rs = p.get("reference_summary") or {}
+        w("| `%s` | %s | %s | `%s` | %s | %s | %d | %d | %d | %d |" % (
+            name, problem_values_text(p.get("problem")), ", ".join(p.get("overridden_keys", [])) or "-",
+            rs.get("case", "not run"), mn(rs.get("axial_force_N")), pct(rs.get("uncertainty_rel"), 3), len(group),
+            len(ok), len(flagged), len(group) - len(ok)))
+    w("")
+    for p in problems:
+        for note in p.get("notes", []):
+            w("- **`%s`** (%s): %s." % (p["name"], note["id"], note["text"]))
+    w("")
+    for p in problems:
+        name = p["name"]
+        group = [c for c in mfs_all if get(c, "params", "problem") == name]
+        if not group:
+            continue
+        w("### Problem `%s`" % name)
+        w("")
+        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+        names = []
+        for c in group:
+            if c.get("series") not in names:
+                names.append(c.get("series"))
+        for sname in names:
+            pts = sorted((c["params"]["node_count"], c["error"]["force_rel"]) for c in group
+                         if c.get("series") == sname and c["status"] == "ok" and finite(get(c, "error", "force_rel"))
+                         and c["error"]["force_rel"] > 0)
+            if pts:
+                ax.loglog([q[0] for q in pts], [100 * q[1] for q in pts], "o-", label="MFS %s" % sname)
+        if ax.lines:
+            plot = "force_error_vs_n_%s.png" % name
+            finish(fig, ax, "MFS nodes N", "force error vs FEM reference [%]", "Force error, problem %s" % name,
+                   os.path.join(plots, plot), log_grid=True)
+            w("![force error, %s](plots/%s)" % (name, plot))
+            w("")
+        else:
+            plt.close(fig)
+        w("| case | N | F [mN] | force error | displacement error | force-method spread | status | flags |")
+        w("|---|---|---|---|---|---|---|---|")
+        for c in group:
+            w("| `%s` | %s | %s | %s | %s | %s | %s | %s |" % (
+                c["id"], c["params"].get("node_count"), mn(get(c, "qoi", "axial_force_N")),
+                pct(get(c, "error", "force_rel")), pct(get(c, "error", "disp_rel_l2")),
+                pct(get(c, "accuracy", "force_method_spread")), c["status"], flags_text(c)))
+        w("")
+
+
+def failures_section(w, mfs_all, several):
+    """Every MFS case that failed or ended "ok" with an accuracy flag, with its parameters."""
+    failed = [c for c in mfs_all if c["status"] != "ok"]
+    flagged = [c for c in mfs_all if c["status"] == "ok" and get(c, "accuracy", "flags")]
+    w("## Failures and accuracy flags")
+    w("")
+    w("%d MFS case%s failed with a status, %d ended \"ok\" with an accuracy flag, %d ended \"ok\" unflagged." % (
+        len(failed), "" if len(failed) == 1 else "s", len(flagged), len(mfs_all) - len(failed) - len(flagged)))
+    w("")
+    if not failed and not flagged:
+        return
+    w("| case | problem | series knobs | status | flags | force-method spread | rcond min | support scale | force error |")
+    w("|---|---|---|---|---|---|---|---|---|")
+    for c in failed + flagged:
+        pa = c["params"]
+        knobs = "%s, N = %s, radius factors %g / %g, max support scale %g, seed %s" % (
+            pa.get("formulation") + (" (paper mode)" if pa.get("paper_mode") else ""), pa.get("node_count_requested"),
+            pa.get("radius_factor"), pa.get("boundary_radius_factor"), pa.get("max_support_scale"), pa.get("seed"))
+        acc = c.get("accuracy", {})
+        w("| `%s` | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            c["id"], problem_values_text(pa.get("problem_values")), knobs, c["status"], flags_text(c),
+            pct(acc.get("force_method_spread")),
+            ("%.2e" % acc["rcond_min"]) if finite(acc.get("rcond_min")) else "n/a",
+            ("%.3g" % acc["support_scale_max"]) if finite(acc.get("support_scale_max")) else "n/a",
+            pct(get(c, "error", "force_rel"))))
+    w("")
+    w("rcond and support scale are \"n/a\" for Galerkin cases: the engine's Galerkin assembly does not report its "
+      "moment-matrix statistics (only the collocation assembly does).")
+    w("")
+
+
 def main(out):
     with open(os.path.join(out, "results.json")) as f:
         results = json.load(f)
     plots = os.path.join(out, "plots")
     os.makedirs(plots, exist_ok=True)
-    cases = results["cases"]
+    all_cases = results["cases"]
     problem = results["problem"]
-    ref = results["reference_summary"]
+    ref = results.get("reference_summary") or {}  # null when --only skipped the first problem
     ref_unc = ref.get("uncertainty_rel")
     series = results.get("series", [])
+    # Several problems ([problems.<name>] variants): the plots and the detailed tables below are
+    # the first problem's; every problem has its own section (its errors, notes, flags).
+    problems = results.get("problems") or [{"name": None}]
+    first = problems[0]["name"]
+    several = len(problems) > 1
+
+    def of_problem(c, name):
+        return name is None or get(c, "params", "problem") in (name, None)
+
+    cases = [c for c in all_cases if of_problem(c, first)]
+    mfs_all = [c for c in all_cases if c["model"] == "mfs"]
     mfs = [c for c in cases if c["model"] == "mfs"]
     by_series = {s["name"]: sorted([c for c in mfs if c.get("series") == s["name"]],
                                    key=lambda c: c["params"]["node_count_requested"]) for s in series}
     fem_levels = [c for c in cases if c["model"] == "fem" and isinstance(get(c, "params", "refinement"), int)]
     ref_levels = [c for c in fem_levels if c.get("part") == "reference"]
-    ref_case = next((c for c in cases if c["id"] == ref["case"]), None)
+    ref_case = next((c for c in cases if c["id"] == ref.get("case")), None)
     default_formulation = results.get("default_formulation")
     lines = []
     w = lines.append
@@ -193,18 +311,27 @@ def main(out):
       (prov.get("git"), prov.get("build_type"), prov.get("compiler"), prov.get("machine"),
        str(prov.get("config_sha256"))[:12], prov.get("time_utc")))
     w("")
-    w("**Problem** (both models): %s, R = %g mm, tool radius a = %g mm, L = %g mm, E = %g kPa, ν = %g, %s rigid flat "
-      "punch at the pole, direction %s, depth ramp δ = %s mm. Both models are linear: each case is solved once at "
+    where = ("at the pole" if problem["benchmark"] != "B5" else
+             "at polar angle θ = %.1f°" % math.degrees(problem.get("contact_polar_angle_rad") or 0.0))
+    if several:
+        w("This study has **%d problems** (variants of its [problem]); the plots and the detailed tables are those of "
+          "the first, `%s`; every problem's errors, notes and flags follow in \"Problems\"." % (len(problems), first))
+        w("")
+    w("**Problem**%s (both models): %s, R = %g mm, tool radius a = %g mm, L = %g mm, E = %g kPa, ν = %g, %s rigid flat "
+      "punch %s, direction %s, depth ramp δ = %s mm. Both models are linear: each case is solved once at "
       "the largest δ; the force at every δ of the ramp is K_t δ d (MFS, the engine's haptic force) or F_ref δ/δ_max "
       "(FEM). Probe points (the axis below the tool and the surface meridian, inside 0.9 L) are identical for both." %
-      (problem["benchmark"], 1e3 * problem["body_radius_m"], 1e3 * a, 1e3 * problem["local_radius_m"],
-       problem["youngs_modulus_Pa"] / 1e3, problem["poisson_ratio"], problem["contact"], problem["direction"],
-       ", ".join("%g" % x for x in depths_mm)))
+      (" `%s`" % first if several else "", problem["benchmark"], 1e3 * problem["body_radius_m"], 1e3 * a,
+       1e3 * problem["local_radius_m"], problem["youngs_modulus_Pa"] / 1e3, problem["poisson_ratio"],
+       problem["contact"], where, problem["direction"], ", ".join("%g" % x for x in depths_mm)))
     w("")
+    for note in problems[0].get("notes", []) if not several else []:
+        w("**Note** (%s): %s." % (note["id"], note["text"]))
+        w("")
     w("**Reference**: `%s` = %s mN at δ = %g mm; estimated discretisation error **%s** (the larger of the "
       "mesh-family spread %s and each family's Richardson uncertainty); %s. Displacement reference: `%s`, "
       "estimated error %s (relative change of the probes from the second-finest to the finest mesh)." %
-      (ref["case"], mn(ref["axial_force_N"]), depths_mm[-1], pct(ref_unc, 3), pct(ref.get("family_spread_rel"), 3),
+      (ref.get("case"), mn(ref.get("axial_force_N")), depths_mm[-1], pct(ref_unc, 3), pct(ref.get("family_spread_rel"), 3),
        "asymptotic convergence" if ref.get("asymptotic") else "**not in the asymptotic range: treat with care**",
        ref.get("probes_from"), pct(ref.get("disp_uncertainty_rel"))))
     w("")
@@ -254,6 +381,7 @@ def main(out):
         cols.append(("ours MFS %s" % ours["mfs"]["series"], ours["mfs"]))
     if ours.get("mfs_default") and ours.get("mfs_default") != ours.get("mfs"):
         cols.append(("ours MFS %s (engine default)" % ours["mfs_default"]["series"], ours["mfs_default"]))
+    default_note = t2.get("mfs_default_note")
     w("| | " + " | ".join(c[0] for c in cols) + " |")
     w("|---|" + "---|" * len(cols))
     w("| No. of nodes | " + " | ".join(str(c[1].get("nodes")) if c[1] else "n/a" for c in cols) + " |")
@@ -263,6 +391,9 @@ def main(out):
     w("| Force error | not reported | not reported | " + " | ".join(
         "%s (reference ±%s)" % (pct(c[1].get("force_rel")), pct(c[1].get("reference_uncertainty_rel"), 3)) if c[1] else "n/a"
         for c in cols[2:]) + " |")
+    if default_note:
+        w("")
+        w("No engine-default row: %s." % default_note)
     if ours.get("mfs") and "force_rel_full_domain" in ours["mfs"]:
         w("| Force error vs full hemisphere B2 | | | " + " | ".join(
             pct(c[1].get("force_rel_full_domain")) if c[1] and "force_rel_full_domain" in c[1] else "" for c in cols[2:]) + " |")
@@ -288,17 +419,24 @@ def main(out):
     w("")
     w("Reference's own estimated discretisation error: **%s** (shown next to every error)." % pct(ref_unc, 3))
     w("")
-    w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | time | status |")
-    w("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    w("Accuracy flags (reference-free, from what the engine reports; thresholds in `accuracy_thresholds` of "
+      "results.json): `force_methods_disagree` = the independent force estimators differ by more than %s, "
+      "`supports_grew` = adaptive support growth was needed, `ill_conditioned` = a moment matrix within %gx of the "
+      "engine's rcond failure threshold." % (pct(get(results, "accuracy_thresholds", "force_method_spread_limit"), 0),
+                                             get(results, "accuracy_thresholds", "rcond_margin") or float("nan")))
+    w("")
+    w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | time | status | accuracy flags |")
+    w("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for s in series:
         for c in by_series[s["name"]]:
             e = c["error"]
-            w("| `%s` | %s%s | %s | %s | %s | %s | ±%s | %s | %s | %s | %s | %s |" % (
+            w("| `%s` | %s%s | %s | %s | %s | %s | ±%s | %s | %s | %s | %s | %s | %s |" % (
                 c["id"], c["params"].get("formulation"), " (paper mode)" if c["params"].get("paper_mode") else "",
                 c["params"].get("node_count"), mn(get(c, "qoi", "axial_force_N")), pct(e.get("force_rel")),
                 pct(e.get("force_signed_rel")), pct(e.get("reference_uncertainty_rel"), 3), pct(e.get("disp_rel_l2")),
                 ("%.2f" % (1e6 * e["disp_max_m"])) if finite(e.get("disp_max_m")) else "n/a",
-                pct(get(c, "error_full_domain", "force_rel")), seconds(get(c, "time_s", "total")), c["status"]))
+                pct(get(c, "error_full_domain", "force_rel")), seconds(get(c, "time_s", "total")), c["status"],
+                flags_text(c)))
     w("")
     w("Engine default formulation: `%s`. Forces by extraction method (signed error against the reference):" % default_formulation)
     w("")
@@ -309,6 +447,10 @@ def main(out):
         w("| `%s` | %s | %s | %s | %s |" % (c["id"], pct(m.get("traction_integral")), pct(m.get("reaction")),
                                             pct(m.get("paper_partition")), pct(m.get("energy_along_tool"))))
     w("")
+
+    if several:
+        problems_section(w, results, problems, mfs_all, all_cases, plots)
+    failures_section(w, mfs_all, several)
 
     w("## Error against run time")
     w("")

@@ -227,7 +227,9 @@ int main(int argc, char** argv) {
   study_cmd->add_option("config", study_args, "Study file (TOML), e.g. studies/hemisphere.toml; or: accept <config>")
       ->required()->expected(1, 2);
   study_cmd->add_option("--out", study_options.output_directory, "Output folder (default: output/<study name>)");
-  study_cmd->add_option("--only", study_options.only, "Run only MFS cases whose id contains this text (repeatable)");
+  study_cmd->add_option("--only", study_options.only,
+                        "Run only MFS cases whose id contains this text (repeatable); a problem variant's ids start "
+                        "with '<variant>/', so --only nu0p49/ runs one variant (and only its FEM reference)");
   study_cmd->add_option("--jobs", study_options.jobs,
                         "MFS cases run this many at a time (1: alone, so their run times are clean)")
       ->check(CLI::Range(1, 64))->capture_default_str();

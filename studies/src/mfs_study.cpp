@@ -310,8 +310,11 @@ class CaseRunner {
     int kinds[4] = {0, 0, 0, 0};
     for (const auto kind : cloud.kinds) ++kinds[static_cast<int>(kind)];
     params["nodes_by_kind"] = {{"interior", kinds[0]}, {"free_surface", kinds[1]}, {"tool_patch", kinds[2]}, {"cut", kinds[3]}};
-    c["qoi"]["min_rcond"] = number(model.system.status.min_rcond);
-    c["diagnostics"] = {{"max_support_scale_used", number(model.system.status.max_support_scale)},
+    // Collocation: over its collocation points; Galerkin: over its volume quadrature points.
+    const bool galerkin = settings.formulation == mfs::Formulation::galerkin;
+    c["qoi"]["min_rcond"] = number(galerkin ? model.galerkin.min_rcond : model.system.status.min_rcond);
+    c["diagnostics"] = {{"max_support_scale_used",
+                         number(galerkin ? model.galerkin.max_support_scale : model.system.status.max_support_scale)},
                         {"max_neighbours", model.system.status.max_neighbours},
                         {"mean_neighbours", number(model.system.status.mean_neighbours)},
                         {"clamped_quadrature_points", model.clamped_points}};

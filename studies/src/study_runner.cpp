@@ -94,6 +94,7 @@ ReferenceStudy read_fem_file(const std::string& path, const std::string& key, co
   g.body_radius_m = problem.body_radius_m;
   g.tool_radius_m = problem.tool_radius_m;
   if (g.benchmark == meshes::Benchmark::B3) g.local_radius_m = problem.local_radius_m;
+  if (g.benchmark == meshes::Benchmark::B5) g.contact_polar_angle_rad = problem.contact_polar_angle_rad;
   study.material = problem.material;
   study.punch.depth_m = problem.max_depth_m();
   study.punch.direction = problem.direction;
@@ -121,7 +122,11 @@ MfsSeries read_series(const std::string& path, const std::string& name, const to
   toml::table geometry{{"benchmark", meshes::to_string(problem.benchmark)},
                        {"body_radius", problem.body_radius_m},
                        {"tool_radius", problem.tool_radius_m}};
-  if (problem.benchmark == meshes::Benchmark::B3) geometry.insert("local_radius", problem.local_radius_m);
+  // L: B3's domain is the MFS ball; on B2 and B5 the problem's L is the ball unless the series
+  // sets its own ([sprinkling] local_radius, e.g. a truncation study).
+  const toml::node* own_l = t.at_path("sprinkling.local_radius").node();
+  if (problem.benchmark == meshes::Benchmark::B3 || own_l == nullptr) geometry.insert("local_radius", problem.local_radius_m);
+  if (problem.benchmark == meshes::Benchmark::B5) geometry.insert("contact_polar_angle", problem.contact_polar_angle_rad);
   t.insert_or_assign("geometry", geometry);
   t.insert_or_assign("material", toml::table{{"youngs_modulus", problem.material.youngs_modulus_Pa},
                                              {"poisson_ratio", problem.material.poisson_ratio}});
@@ -250,11 +255,53 @@ const json& at_path(const json& j, const std::vector<std::string>& path) {
   return *node;
 }
 
+/// One problem while the study runs: its reference once computed, its selected MFS cases.
+struct ProblemRun {
+  const StudyProblem* sp = nullptr;
+  Eigen::Vector3d d;  ///< the tool direction, normalised
+  ReferenceValue reference;
+  std::string reference_part;  ///< "reference" or "<name>/reference": the FEM folder and id prefix
+  std::vector<std::pair<const MfsSeries*, int>> mfs_cases;
+  const ComparisonProblem& problem() const { return sp->problem; }
+};
+
+/// The report's notes on a problem: what its numbers mean beyond the errors.
+json problem_notes(const ComparisonProblem& p) {
+  json notes = json::array();
+  if (p.beyond_small_strain())
+    notes.push_back({{"id", "depth_beyond_small_strain"},
+                     {"text", "the largest depth " + format_number(1e3 * p.max_depth_m()) + " mm exceeds a/2 = " +
+                                  format_number(0.5e3 * p.tool_radius_m) +
+                                  " mm: both models are linear (small strain), so the force just scales with the depth; "
+                                  "such depths test numerical stability, not physics"}});
+  if (p.benchmark == meshes::Benchmark::B5 && p.ball_reaches_base())
+    notes.push_back({{"id", "ball_reaches_base"},
+                     {"text", "the MFS ball(contact, L) reaches the clamped base z = 0 (R cos θ = " +
+                                  format_number(1e3 * p.body_radius_m * std::cos(p.contact_polar_angle_rad)) + " mm < L = " +
+                                  format_number(1e3 * p.local_radius_m) +
+                                  " mm). The FEM clamps the base; the MFS holds it only where its engine supports a "
+                                  "clamped surface (each case's diagnostics.clamped_quadrature_points > 0: held as u = 0; "
+                                  "collocation cannot hold it and ends with a failure status); an MFS that leaves the base "
+                                  "free inside its ball is softer by construction"}});
+  if (p.angle_to_normal_rad() > 45.0 * M_PI / 180.0)
+    notes.push_back({{"id", "grazing"},
+                     {"text", "the tool direction is " + format_number(std::round(p.angle_to_normal_rad() * 1800 / M_PI) / 10) +
+                                  " deg from the inward normal (grazing); both models prescribe " +
+                                  std::string(p.contact == fem::Contact::bonded ? "u = δ d on the patch" : "u·d = δ on the patch (frictionless)")}});
+  return notes;
+}
+
 class StudyRun {
  public:
   StudyRun(const ComparisonStudy& study, const StudyRunOptions& options) : study_(study), options_(options) {
     out_ = options.output_directory.empty() ? "output/" + study.name : options.output_directory;
-    d_ = study.problem.direction.normalized();
+    for (const auto& sp : study.problems) {
+      ProblemRun r;
+      r.sp = &sp;
+      r.d = sp.problem.direction.normalized();
+      r.reference_part = sp.id_prefix + "reference";
+      problems_.push_back(std::move(r));
+    }
   }
 
   json run() {
@@ -264,36 +311,60 @@ class StudyRun {
     config_text_ = study_.config_path.empty() ? std::string() : read_file(study_.config_path);
     if (rank0 && !config_text_.empty()) write_file_atomically(out_ + "/study.toml", config_text_);
 
-    std::vector<std::pair<const MfsSeries*, int>> mfs_cases;
-    for (const auto& s : study_.series)
-      for (const int n : s.study.node_counts)
-        if (selected("MFS-" + s.name + "-N" + std::to_string(n))) mfs_cases.push_back({&s, n});
-    total_ = 1 + (study_.table2_fem ? 1 : 0) + (study_.table2_reference ? 1 : 0) + mfs_cases.size();
+    // The cases of every problem; a problem with none selected skips its reference (unless it
+    // is the only one: every error and the summary need it).
+    total_ = (study_.table2_fem ? 1 : 0) + (study_.table2_reference ? 1 : 0);
+    for (auto& r : problems_) {
+      for (const auto& s : r.sp->series)
+        for (const int n : s.study.node_counts)
+          if (selected(mfs_id(r, s, n))) r.mfs_cases.push_back({&s, n});
+      total_ += r.mfs_cases.size() + (runs_reference(r) ? 1 : 0);
+    }
 
+    ProblemRun& first = problems_.front();
     json document{{"study", study_.name},
                   {"provenance", provenance(config_text_)},
-                  {"problem", problem_json()},
+                  {"problem", problem_json(first.problem())},
                   {"cases", json::array()}};
     json& cases = document["cases"];
 
     // The references first: every error needs them. Each FEM solve comes from the cache when the
-    // same inputs were solved by the same code version.
-    const json reference_doc = run_fem("reference", study_.reference);
-    reference_ = pick_reference(reference_doc, "reference/", d_);
-    add_fem_cases(reference_doc, "reference/", reference_, cases);
-    document["reference_summary"] = reference_.summary;
+    // same inputs were solved by the same code version (identical problems share it).
+    json problems = json::array();
+    for (auto& r : problems_) {
+      json entry{{"name", r.sp->name},
+                 {"id_prefix", r.sp->id_prefix},
+                 {"problem", problem_json(r.problem())},
+                 {"overridden_keys", r.sp->overridden_keys},
+                 {"notes", problem_notes(r.problem())},
+                 {"reference_config", r.sp->reference.name},
+                 {"series", json::array()},
+                 {"mfs_cases", r.mfs_cases.size()}};
+      for (const auto& s : r.sp->series) entry["series"].push_back(s.name);
+      if (runs_reference(r)) {
+        const json reference_doc = run_fem(r.reference_part, r.sp->reference);
+        r.reference = pick_reference(reference_doc, r.reference_part + "/", r.d);
+        add_fem_cases(reference_doc, r.reference_part + "/", r.reference, r, cases);
+        entry["reference_summary"] = r.reference.summary;
+      } else {
+        entry["reference_summary"] = nullptr;
+      }
+      problems.push_back(entry);
+    }
+    document["problems"] = problems;
+    document["reference_summary"] = first.reference.summary;
 
     std::optional<ReferenceValue> full_reference;
     if (study_.table2_reference) {
       const json doc = run_fem("table2_reference", *study_.table2_reference);
-      full_reference = pick_reference(doc, "table2_reference/", d_);
-      add_fem_cases(doc, "table2_reference/", *full_reference, cases);
+      full_reference = pick_reference(doc, "table2_reference/", first.d);
+      add_fem_cases(doc, "table2_reference/", *full_reference, first, cases);
       document["table2_reference_summary"] = full_reference->summary;
     }
-    const ReferenceValue& fe_row_reference = full_reference ? *full_reference : reference_;
+    const ReferenceValue& fe_row_reference = full_reference ? *full_reference : first.reference;
     if (study_.table2_fem) {
       const json doc = run_fem("table2_fem", *study_.table2_fem);
-      add_fem_cases(doc, "table2_fem/", fe_row_reference, cases);
+      add_fem_cases(doc, "table2_fem/", fe_row_reference, first, cases);
     }
 
     // Under mpirun every rank takes part in the FEM solves; the MFS cases, the files and the
@@ -301,12 +372,23 @@ class StudyRun {
     if (fem::MpiSession::rank() != 0) return document;
     // The organ surfaces first (gmsh, one at a time), then the cases, `jobs` at a time; each
     // writes only its own folder. Results keep the study's order.
-    for (const auto& [series, n] : mfs_cases) organ_path(series->study);
-    std::vector<json> computed(mfs_cases.size());
-    const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(mfs_cases.size())));
+    struct Job {
+      ProblemRun* run;
+      const MfsSeries* series;
+      int n;
+    };
+    std::vector<Job> jobs_list;
+    for (auto& r : problems_)
+      for (const auto& [series, n] : r.mfs_cases) {
+        organ_path(series->study);
+        jobs_list.push_back({&r, series, n});
+      }
+    std::vector<json> computed(jobs_list.size());
+    const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(jobs_list.size())));
     document["mfs_jobs"] = jobs;
+    const auto compute = [&](std::size_t i) { computed[i] = run_mfs_case(*jobs_list[i].run, *jobs_list[i].series, jobs_list[i].n); };
     if (jobs == 1) {
-      for (std::size_t i = 0; i < mfs_cases.size(); ++i) computed[i] = run_mfs_case(*mfs_cases[i].first, mfs_cases[i].second);
+      for (std::size_t i = 0; i < jobs_list.size(); ++i) compute(i);
     } else {
       std::atomic<std::size_t> next{0};
       std::vector<std::exception_ptr> errors(static_cast<std::size_t>(jobs));
@@ -314,8 +396,7 @@ class StudyRun {
       for (int w = 0; w < jobs; ++w)
         workers.emplace_back([&, w] {
           try {
-            for (std::size_t i; (i = next.fetch_add(1)) < mfs_cases.size();)
-              computed[i] = run_mfs_case(*mfs_cases[i].first, mfs_cases[i].second);
+            for (std::size_t i; (i = next.fetch_add(1)) < jobs_list.size();) compute(i);
           } catch (...) {
             errors[static_cast<std::size_t>(w)] = std::current_exception();
           }
@@ -324,23 +405,33 @@ class StudyRun {
       for (const auto& error : errors)
         if (error) std::rethrow_exception(error);
     }
-    for (std::size_t i = 0; i < mfs_cases.size(); ++i) {
+    for (std::size_t i = 0; i < jobs_list.size(); ++i) {
       json c = std::move(computed[i]);
-      add_mfs_errors(c, full_reference ? &*full_reference : nullptr);
+      const ProblemRun& r = *jobs_list[i].run;
+      add_mfs_errors(c, r, &r == &first && full_reference ? &*full_reference : nullptr);
+      const json& flags = c.at("accuracy").at("flags");
+      std::string flag_text;
+      for (const auto& f : flags) flag_text += (flag_text.empty() ? " [" : ", ") + f.get<std::string>();
+      if (!flag_text.empty()) flag_text += "]";
       progress(c.at("id").get<std::string>() + (c.value("resumed", false) ? " (resumed)" : ""),
                "F = " + format_number(1e3 * value_or_nan(c.at("qoi"), "axial_force_N")) + " mN, error " +
                    format_number(100 * value_or_nan(c.at("error"), "force_rel")) + " % (reference's own error " +
-                   (std::isfinite(reference_.uncertainty_rel) ? format_number(100 * reference_.uncertainty_rel) + " %"
-                                                              : std::string("not estimated")) +
-                   ")  " + c.at("status").get<std::string>());
+                   (std::isfinite(r.reference.uncertainty_rel) ? format_number(100 * r.reference.uncertainty_rel) + " %"
+                                                               : std::string("not estimated")) +
+                   ")  " + c.at("status").get<std::string>() + flag_text);
       cases.push_back(std::move(c));
     }
 
     document["table2"] = table2(cases, fe_row_reference);
     document["targets"] = targets(cases, document["table2"], full_reference.has_value());
-    document["depths_m"] = study_.problem.depths_m;
+    document["depths_m"] = first.problem().depths_m;
     document["default_formulation"] = mfs::to_string(mfs::LocalModelSettings{}.formulation);
     document["series"] = series_json();
+    document["accuracy_thresholds"] = {{"force_method_spread_limit", force_method_spread_limit},
+                                       {"support_growth_tolerance", support_growth_tolerance},
+                                       {"rcond_margin", rcond_margin},
+                                       {"stiffness_ratio_min", stiffness_ratio_min},
+                                       {"stiffness_ratio_max", stiffness_ratio_max}};
     document["elapsed_s"] = seconds_since(start_);
 
     write_file_atomically(out_ + "/results.json", document.dump(2) + "\n");
@@ -352,6 +443,12 @@ class StudyRun {
   }
 
  private:
+  bool runs_reference(const ProblemRun& r) const { return problems_.size() == 1 || !r.mfs_cases.empty(); }
+
+  static std::string mfs_id(const ProblemRun& r, const MfsSeries& s, int n) {
+    return r.sp->id_prefix + "MFS-" + s.name + "-N" + std::to_string(n);
+  }
+
   bool selected(const std::string& id) const {
     if (options_.only.empty()) return true;
     return std::any_of(options_.only.begin(), options_.only.end(),
@@ -367,35 +464,47 @@ class StudyRun {
     std::fflush(stdout);
   }
 
-  json problem_json() const {
-    const ComparisonProblem& p = study_.problem;
+  static json problem_json(const ComparisonProblem& p) {
+    meshes::MeshParameters g;
+    g.benchmark = p.benchmark;
+    g.body_radius_m = p.body_radius_m;
+    g.contact_polar_angle_rad = p.contact_polar_angle_rad;
     return {{"benchmark", meshes::to_string(p.benchmark)},
             {"body_radius_m", p.body_radius_m},
             {"tool_radius_m", p.tool_radius_m},
             {"local_radius_m", p.local_radius_m},
+            {"contact_polar_angle_rad", p.contact_polar_angle_rad},
             {"youngs_modulus_Pa", p.material.youngs_modulus_Pa},
             {"poisson_ratio", p.material.poisson_ratio},
             {"contact", fem::to_string(p.contact)},
-            {"direction", vector_json(d_)},
-            {"contact_point_m", vector_json(contact_point(study_.reference.geometry))},
+            {"direction", vector_json(p.direction.normalized())},
+            {"angle_to_normal_rad", number(p.angle_to_normal_rad())},
+            {"contact_point_m", vector_json(contact_point(g))},
             {"depths_m", p.depths_m}};
   }
 
   json series_json() const {
     json list = json::array();
-    for (const auto& s : study_.series)
+    for (const auto& s : study_.first().series)
       list.push_back({{"name", s.name},
                       {"formulation", mfs::to_string(s.study.model.formulation)},
                       {"paper_mode", s.study.model.paper_mode},
                       {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
                       {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
                       {"node_counts", s.study.node_counts},
-                      {"engine_default", is_default_series(s)}});
+                      {"engine_default", s.engine_default}});
+    // Series that run on other problems only (a variant's `series` subset) are listed too.
+    for (const auto& sp : study_.problems)
+      for (const auto& s : sp.series)
+        if (std::none_of(list.begin(), list.end(), [&](const json& e) { return e.at("name") == s.name; }))
+          list.push_back({{"name", s.name},
+                          {"formulation", mfs::to_string(s.study.model.formulation)},
+                          {"paper_mode", s.study.model.paper_mode},
+                          {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
+                          {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
+                          {"node_counts", s.study.node_counts},
+                          {"engine_default", s.engine_default}});
     return list;
-  }
-
-  static bool is_default_series(const MfsSeries& s) {
-    return !s.study.model.paper_mode && s.study.model.formulation == mfs::LocalModelSettings{}.formulation;
   }
 
   json run_fem(const std::string& part, const ReferenceStudy& fem_study) {
@@ -417,13 +526,22 @@ class StudyRun {
 
   /// FEM cases under a prefix; level errors are taken against `reference` (the study's
   /// reference for this domain), the ramp is F δ_i / δ_max.
-  void add_fem_cases(const json& doc, const std::string& prefix, const ReferenceValue& reference, json& cases) const {
+  void add_fem_cases(const json& doc, const std::string& prefix, const ReferenceValue& reference, const ProblemRun& r,
+                     json& cases) const {
+    const ComparisonProblem& problem = r.problem();
+    const Eigen::Vector3d& d = r.d;
     for (json c : doc.at("cases")) {
       c["id"] = prefix + c.at("id").get<std::string>();
-      c["part"] = prefix.substr(0, prefix.size() - 1);
+      // The part without the problem's prefix ("reference", "table2_fem"), the problem apart.
+      const std::string part = prefix.substr(0, prefix.size() - 1);
+      c["part"] = part.substr(part.rfind('/') == std::string::npos ? 0 : part.rfind('/') + 1);
+      if (c.at("params").is_object()) {
+        c["params"]["problem"] = r.sp->name;
+        c["params"]["problem_values"] = problem_json(problem);
+      }
       if (c.contains("reference") && c.at("reference").is_string())
         c["reference"] = prefix + c.at("reference").get<std::string>();
-      const double f = axial(c.at("qoi").at("force_N"), d_);
+      const double f = axial(c.at("qoi").at("force_N"), d);
       const bool level = c.at("model") == "fem" && c.at("params").contains("refinement") &&
                          c.at("params").at("refinement").is_number();
       if (level) {
@@ -436,8 +554,8 @@ class StudyRun {
         c["time_s"]["solution"] = c["time_s"]["solve"];
       }
       json ramp = json::array();
-      for (const double depth : study_.problem.depths_m) ramp.push_back(number(f * depth / study_.problem.max_depth_m()));
-      c["depths_m"] = study_.problem.depths_m;
+      for (const double depth : problem.depths_m) ramp.push_back(number(f * depth / problem.max_depth_m()));
+      c["depths_m"] = problem.depths_m;
       c["force_depth_N"] = ramp;
       cases.push_back(std::move(c));
     }
@@ -465,10 +583,17 @@ class StudyRun {
     return path;
   }
 
+  /// The problem a case belongs to: its name and values in params (results.json groups by it).
+  static void label_problem(json& c, const ProblemRun& r) {
+    c["problem"] = r.sp->name;
+    c["params"]["problem"] = r.sp->name;
+    c["params"]["problem_values"] = problem_json(r.problem());
+  }
+
   /// One MFS case: reused from <out>/mfs/<id>/case.json when its hash matches, else run by
   /// the MFS study (one node count).
-  json run_mfs_case(const MfsSeries& series, int n) {
-    const std::string id = "MFS-" + series.name + "-N" + std::to_string(n);
+  json run_mfs_case(const ProblemRun& r, const MfsSeries& series, int n) {
+    const std::string id = mfs_id(r, series, n);
     MfsStudy s = series.study;
     s.name = id;
     s.node_counts = {n};
@@ -484,6 +609,7 @@ class StudyRun {
         if (record.value("case_sha256", "") == hash) {
           json c = record.at("case");
           c["resumed"] = true;
+          label_problem(c, r);
           return c;
         }
       } catch (const std::exception&) {
@@ -495,12 +621,13 @@ class StudyRun {
     o.config_text = series.config_text;
     o.quiet = true;
     // The MFS field on the reference's finest mesh, for ParaView (and a field error).
-    if (!reference_.field_vtu.empty()) o.reference_field_path = out_ + "/fem/reference/" + reference_.field_vtu;
+    if (!r.reference.field_vtu.empty()) o.reference_field_path = out_ + "/fem/" + r.reference_part + "/" + r.reference.field_vtu;
     const json doc = run_mfs_study(s, o);
     json c = doc.at("cases").at(0);
     c["id"] = id;
     c["series"] = series.name;
     c["part"] = "mfs";
+    label_problem(c, r);
     if (c.value("vtu", json(nullptr)).is_string()) c["vtu"] = "mfs/" + id + "/" + c.at("vtu").get<std::string>();
     if (c.value("comparison_vtu", json(nullptr)).is_string())
       c["comparison_vtu"] = "mfs/" + id + "/" + c.at("comparison_vtu").get<std::string>();
@@ -520,7 +647,8 @@ class StudyRun {
     std::map<std::string, std::vector<std::pair<double, std::string>>> by_series;
     for (const auto& c : cases)
       if (c.value("part", "") == "mfs" && c.value("comparison_vtu", json(nullptr)).is_string())
-        by_series[c.at("series").get<std::string>()].push_back(
+        by_series[c.at("id").get<std::string>().substr(0, c.at("id").get<std::string>().rfind('/') + 1) +
+                  c.at("series").get<std::string>()].push_back(
             {c.at("params").value("node_count", 0.0), c.at("comparison_vtu").get<std::string>()});
     for (auto& [series, files] : by_series) {
       std::sort(files.begin(), files.end());
@@ -528,32 +656,37 @@ class StudyRun {
       pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
       for (const auto& [n, file] : files) pvd << "    <DataSet timestep=\"" << n << "\" group=\"\" part=\"0\" file=\"" << file << "\"/>\n";
       pvd << "  </Collection>\n</VTKFile>\n";
-      write_file_atomically(out_ + "/mfs_on_reference_" + series + ".pvd", pvd.str());
+      // A variant's series: "<name>/<series>" → mfs_on_reference_<name>_<series>.pvd.
+      std::string file_name = series;
+      std::replace(file_name.begin(), file_name.end(), '/', '_');
+      write_file_atomically(out_ + "/mfs_on_reference_" + file_name + ".pvd", pvd.str());
     }
   }
 
-  void add_mfs_errors(json& c, const ReferenceValue* full) const {
+  void add_mfs_errors(json& c, const ProblemRun& r, const ReferenceValue* full) const {
+    const ReferenceValue& reference = r.reference;
+    const Eigen::Vector3d& d = r.d;
     json& qoi = c["qoi"];
-    const double f = axial(qoi.value("force_N", json(nullptr)), d_);
+    const double f = axial(qoi.value("force_N", json(nullptr)), d);
     qoi["axial_force_N"] = number(f);
-    const double fr = reference_.force_N;
+    const double fr = reference.force_N;
     json error{{"force_rel", number(std::abs(f - fr) / std::abs(fr))},
                {"force_signed_rel", number((f - fr) / std::abs(fr))},
-               {"reference_uncertainty_rel", number(reference_.uncertainty_rel)},
+               {"reference_uncertainty_rel", number(reference.uncertainty_rel)},
                {"disp_rel_l2", nullptr},
                {"disp_max_m", nullptr},
                {"disp_probes", 0},
-               {"reference_disp_uncertainty_rel", number(reference_.disp_uncertainty_rel)}};
+               {"reference_disp_uncertainty_rel", number(reference.disp_uncertainty_rel)}};
     json by_method = json::object();
     const json& methods = at_path(qoi, {"forces_by_method_N"});
     if (methods.is_object())
       for (const auto& [name, value] : methods.items()) {
-        const double fm = value.is_number() ? value.get<double>() : axial(value, d_);
+        const double fm = value.is_number() ? value.get<double>() : axial(value, d);
         by_method[name] = number((fm - fr) / std::abs(fr));
       }
     error["by_method_signed_rel"] = by_method;
     if (qoi.contains("probes") && qoi.at("probes").is_array() && !qoi.at("probes").empty()) {
-      const ProbeComparison p = compare_probes(qoi.at("probes"), reference_.probes);
+      const ProbeComparison p = compare_probes(qoi.at("probes"), reference.probes);
       if (p.count > 0) {
         error["disp_rel_l2"] = number(p.rel_l2);
         error["disp_max_m"] = number(p.max_abs_m);
@@ -562,8 +695,8 @@ class StudyRun {
     }
     error["field_rel_l2"] = c.value("error", json::object()).value("field_rel_l2", json(nullptr));
     c["error"] = error;
-    c["reference"] = reference_.id;
-    if (full != nullptr && study_.problem.benchmark != study_.table2_reference->geometry.benchmark) {
+    c["reference"] = reference.id;
+    if (full != nullptr && r.problem().benchmark != study_.table2_reference->geometry.benchmark) {
       c["error_full_domain"] = {{"force_rel", number(std::abs(f - full->force_N) / std::abs(full->force_N))},
                                 {"force_signed_rel", number((f - full->force_N) / std::abs(full->force_N))},
                                 {"reference", full->id},
@@ -575,9 +708,12 @@ class StudyRun {
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) kt(i, j) = value_or_nan(m.at(i).at(j));
     json ramp = json::array();
-    for (const double v : mfs_force_ramp_N(kt, d_, study_.problem.depths_m)) ramp.push_back(number(v));
-    c["depths_m"] = study_.problem.depths_m;
+    for (const double v : mfs_force_ramp_N(kt, d, r.problem().depths_m)) ramp.push_back(number(v));
+    c["depths_m"] = r.problem().depths_m;
     c["force_depth_N"] = ramp;
+    // What the engine says about its own accuracy, next to the status (a case can end "ok"
+    // far from the reference; these flags need no reference).
+    c["accuracy"] = to_json(accuracy_indicator(c, d));
   }
 
   const json* find_case(const json& cases, const std::string& id) const {
@@ -589,6 +725,8 @@ class StudyRun {
   /// Table 2: the paper's numbers next to ours (same node counts), with the force error each
   /// achieves and the reference's own error estimate.
   json table2(const json& cases, const ReferenceValue& fe_reference) const {
+    const ProblemRun& first = problems_.front();
+    const ReferenceValue& reference = first.reference;
     json t{{"paper",
             {{"fe", {{"nodes", 4045}, {"model_s", 6.44}, {"solution_s", 11.88}, {"total_s", 18.32}}},
              {"mfs", {{"nodes", 34}, {"model_s", 0.0021}, {"solution_s", 0.0015}, {"total_s", 0.0036}}},
@@ -616,9 +754,9 @@ class StudyRun {
                     {"reference_uncertainty_rel", number(fe_reference.uncertainty_rel)}};
     }
     const auto mfs_row = [&](const std::string& series_name) -> json {
-      for (const auto& s : study_.series) {
+      for (const auto& s : first.sp->series) {
         if (s.name != series_name) continue;
-        const json* c = find_case(cases, "MFS-" + s.name + "-N" + std::to_string(s.study.node_counts.front()));
+        const json* c = find_case(cases, mfs_id(first, s, s.study.node_counts.front()));
         if (c == nullptr) return nullptr;
         const json& ts = c->at("time_s");
         json row{{"case", c->at("id")},
@@ -632,8 +770,8 @@ class StudyRun {
                  {"total_s", number(value_or_nan(ts, "model") + value_or_nan(ts, "solution"))},
                  {"axial_force_N", c->at("qoi").at("axial_force_N")},
                  {"force_rel", c->at("error").at("force_rel")},
-                 {"reference", reference_.id},
-                 {"reference_uncertainty_rel", number(reference_.uncertainty_rel)},
+                 {"reference", reference.id},
+                 {"reference_uncertainty_rel", number(reference.uncertainty_rel)},
                  {"disp_rel_l2", c->at("error").at("disp_rel_l2")},
                  {"status", c->at("status")}};
         if (c->contains("error_full_domain")) row["force_rel_full_domain"] = c->at("error_full_domain").at("force_rel");
@@ -642,11 +780,20 @@ class StudyRun {
       return nullptr;
     };
     if (!study_.table2_mfs_series.empty()) ours["mfs"] = mfs_row(study_.table2_mfs_series);
-    for (const auto& s : study_.series)
-      if (is_default_series(s)) {
-        ours["mfs_default"] = mfs_row(s.name);
-        break;
-      }
+    // The "engine default" row: the series whose resolved settings are the engine's defaults
+    // (by value, not by name); none such, and Table 2 says so instead of guessing.
+    const auto is_default = [](const MfsSeries& s) { return s.engine_default; };
+    const auto found = std::find_if(first.sp->series.begin(), first.sp->series.end(), is_default);
+    if (found != first.sp->series.end()) {
+      ours["mfs_default"] = mfs_row(found->name);
+      t["mfs_default_series"] = found->name;
+    } else {
+      ours["mfs_default"] = nullptr;
+      t["mfs_default_series"] = nullptr;
+      t["mfs_default_note"] =
+          "no series of this study runs the engine defaults (realtime::mfs::LocalModelSettings{} with the MFS "
+          "reader's defaults); Table 2 has no engine-default row";
+    }
     return t;
   }
 
@@ -671,15 +818,23 @@ class StudyRun {
       }
       list.push_back(t);
     };
-    add("fem_reference_uncertainty", "FEM reference force: estimated discretisation error (Richardson, " +
-                                         reference_.summary.at("study").get<std::string>() + ")",
-        0.003, reference_.uncertainty_rel, "relative", reference_.id);
+    for (const ProblemRun& r : problems_) {
+    if (!runs_reference(r)) continue;
+    const ReferenceValue& reference = r.reference;
+    // One problem: the ids as always; several: each id and label names its problem.
+    const std::string tag = r.sp->id_prefix;
+    const std::string where = tag.empty() ? "" : " [" + r.sp->name + "]";
+    add("fem_reference_uncertainty" + (tag.empty() ? "" : ":" + r.sp->name),
+        "FEM reference force: estimated discretisation error (Richardson, " +
+            reference.summary.at("study").get<std::string>() + ")" + where,
+        0.003, reference.uncertainty_rel, "relative", reference.id);
 
-    for (const auto& s : study_.series) {
+    for (const auto& s : r.sp->series) {
       if (s.study.model.paper_mode) continue;
       std::vector<const json*> series_cases;
       for (const auto& c : cases)
-        if (c.value("series", "") == s.name && c.at("status") == "ok") series_cases.push_back(&c);
+        if (c.value("series", "") == s.name && c.value("problem", "") == r.sp->name && c.at("status") == "ok")
+          series_cases.push_back(&c);
       const auto best = [&](const char* field, int max_n, std::string& basis) {
         double value = nan_value;
         for (const json* c : series_cases) {
@@ -693,16 +848,16 @@ class StudyRun {
         return value;
       };
       const std::string label = "MFS " + s.name + " (" + mfs::to_string(s.study.model.formulation) +
-                                (is_default_series(s) ? ", engine default" : "") + ")";
+                                (s.engine_default ? ", engine default" : "") + ")" + where;
       std::string basis;
       double v = best("force_rel", 60, basis);
-      add("mfs_force_n60:" + s.name, label + " vs FEM on the identical domain, tool force, best N <= 60", 0.05, v, "relative", basis);
+      add("mfs_force_n60:" + tag + s.name, label + " vs FEM on the identical domain, tool force, best N <= 60", 0.05, v, "relative", basis);
       basis.clear();
       v = best("force_rel", 300, basis);
-      add("mfs_force_n300:" + s.name, label + " vs FEM on the identical domain, tool force, best N <= 300", 0.01, v, "relative", basis);
+      add("mfs_force_n300:" + tag + s.name, label + " vs FEM on the identical domain, tool force, best N <= 300", 0.01, v, "relative", basis);
       basis.clear();
       v = best("disp_rel_l2", std::numeric_limits<int>::max(), basis);
-      add("mfs_displacement:" + s.name, label + " vs FEM, displacement at probes (relative L2), best N", 0.02, v, "relative", basis);
+      add("mfs_displacement:" + tag + s.name, label + " vs FEM, displacement at probes (relative L2), best N", 0.02, v, "relative", basis);
       if (have_full_reference) {
         double full = nan_value;
         std::string full_basis;
@@ -713,9 +868,11 @@ class StudyRun {
             full_basis = c->at("id");
           }
         }
-        add("mfs_vs_full_domain:" + s.name, label + " local model vs the full hemisphere B2, tool force, best N", 0.03,
-            full, "relative", full_basis);
+        if (&r == &problems_.front())
+          add("mfs_vs_full_domain:" + tag + s.name, label + " local model vs the full hemisphere B2, tool force, best N",
+              0.03, full, "relative", full_basis);
       }
+    }
     }
 
     // Run time against error: the cheapest MFS and the cheapest reference FEM level reaching 5 %.
@@ -725,11 +882,13 @@ class StudyRun {
       const double e = value_or_nan(c.at("error"), "force_rel");
       const double t = value_or_nan(c.at("time_s"), "total");
       if (!(e <= 0.05) || !std::isfinite(t)) continue;
-      if (c.at("model") == "mfs" && c.at("status") == "ok" && !(t >= mfs_time)) {
+      if (c.at("model") == "mfs" && c.at("status") == "ok" && c.value("problem", "") == problems_.front().sp->name &&
+          !(t >= mfs_time)) {
         mfs_time = t;
         mfs_case = c.at("id");
       }
-      if (c.value("part", "") == "reference" && c.at("params").contains("refinement") &&
+      if (c.value("part", "") == "reference" && c.at("id").get<std::string>().rfind(problems_.front().reference_part + "/", 0) == 0 &&
+          c.at("params").contains("refinement") &&
           c.at("params").at("refinement").is_number() && !(t >= fem_time)) {
         fem_time = t;
         fem_case = c.at("id");
@@ -760,9 +919,9 @@ class StudyRun {
       add("mfs34_time", "MFS local model, 34 nodes (" + mfs_row.at("series").get<std::string>() +
                             "): sprinkle + shape functions + assembly + solve (one sample; benchmarks are authoritative)",
           20e-6, value_or_nan(mfs_row, "total_s"), "s", mfs_row.at("case"));
-    for (const auto& s : study_.series) {
-      if (!is_default_series(s) || s.study.model.collocation.mls.basis != mfs::Basis::quadratic) continue;
-      const json* c = find_case(cases, "MFS-" + s.name + "-N200");
+    for (const auto& s : problems_.front().sp->series) {
+      if (!s.engine_default || s.study.model.collocation.mls.basis != mfs::Basis::quadratic) continue;
+      const json* c = find_case(cases, mfs_id(problems_.front(), s, 200));
       if (c != nullptr)
         add("mfs200_time", "MFS local model, 200 nodes, quadratic basis (one sample)", 1e-3,
             value_or_nan(c->at("time_s"), "total"), "s", c->at("id"));
@@ -796,7 +955,10 @@ class StudyRun {
         {"solution_s", {"time_s", "solution"}},
         {"total_s", {"time_s", "total"}},
         {"reference", {"reference"}},
-        {"status", {"status"}}};
+        {"status", {"status"}},
+        {"problem", {"params", "problem"}},
+        {"force_method_spread", {"accuracy", "force_method_spread"}},
+        {"accuracy_flags", {"accuracy", "flags"}}};
     std::ostringstream text;
     for (std::size_t i = 0; i < columns.size(); ++i) text << (i ? "," : "") << columns[i].first;
     text << "\n";
@@ -821,7 +983,9 @@ class StudyRun {
     probes << "id,probe,x_m,y_m,z_m,ux_m,uy_m,uz_m\n";
     for (const auto& c : document.at("cases")) {
       const json& list = at_path(c, {"qoi", "probes"});
-      if (!list.is_array() || (c.at("model") != "mfs" && c.at("id") != reference_.id)) continue;
+      const bool reference_case = std::any_of(problems_.begin(), problems_.end(),
+                                              [&](const ProblemRun& r) { return c.at("id") == r.reference.id; });
+      if (!list.is_array() || (c.at("model") != "mfs" && !reference_case)) continue;
       for (const auto& p : list) {
         const json& x = p.at("position_m");
         const json& u = p.value("displacement_m", json(nullptr));
@@ -843,19 +1007,26 @@ class StudyRun {
   }
 
   void print_summary(const json& document) const {
-    std::printf("\nreference %s: F = %.6f mN, estimated discretisation error %s\n", reference_.id.c_str(),
-                1e3 * reference_.force_N,
-                std::isfinite(reference_.uncertainty_rel) ? (format_number(100 * reference_.uncertainty_rel) + " %").c_str()
-                                                          : "not estimated (fewer than three levels)");
+    for (const ProblemRun& r : problems_) {
+      if (!runs_reference(r)) continue;
+      std::printf("\nreference %s: F = %.6f mN, estimated discretisation error %s", r.reference.id.c_str(),
+                  1e3 * r.reference.force_N,
+                  std::isfinite(r.reference.uncertainty_rel) ? (format_number(100 * r.reference.uncertainty_rel) + " %").c_str()
+                                                             : "not estimated (fewer than three levels)");
+    }
+    std::printf("\n");
     std::printf("%-28s %6s %12s %10s %10s %11s\n", "case", "N", "F [mN]", "F err [%]", "u err [%]", "time [ms]");
     for (const auto& c : document.at("cases")) {
       if (c.at("model") != "mfs") continue;
-      std::printf("%-28s %6s %s %s %s %s  %s\n", c.at("id").get<std::string>().c_str(),
+      std::string flags;
+      for (const auto& f : c.at("accuracy").at("flags")) flags += " " + f.get<std::string>();
+      std::printf("%-28s %6s %s %s %s %s  %s%s\n", c.at("id").get<std::string>().c_str(),
                   c.at("params").at("node_count").dump().c_str(),
                   table_cell(1e3 * value_or_nan(c.at("qoi"), "axial_force_N"), 12, 5).c_str(),
                   table_cell(100 * value_or_nan(c.at("error"), "force_rel"), 10, 2).c_str(),
                   table_cell(100 * value_or_nan(c.at("error"), "disp_rel_l2"), 10, 2).c_str(),
-                  table_cell(1e3 * value_or_nan(c.at("time_s"), "total"), 11, 2).c_str(), c.at("status").get<std::string>().c_str());
+                  table_cell(1e3 * value_or_nan(c.at("time_s"), "total"), 11, 2).c_str(), c.at("status").get<std::string>().c_str(),
+                  flags.c_str());
     }
     std::printf("\nDESIGN.md §11 targets:\n");
     for (const auto& t : document.at("targets")) {
@@ -890,8 +1061,7 @@ class StudyRun {
   const ComparisonStudy& study_;
   const StudyRunOptions& options_;
   std::string out_, config_text_;
-  Eigen::Vector3d d_;
-  ReferenceValue reference_;
+  std::vector<ProblemRun> problems_;
   std::chrono::steady_clock::time_point start_;
   std::size_t done_ = 0, total_ = 0;
 };
@@ -899,6 +1069,20 @@ class StudyRun {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+
+Eigen::Vector3d ComparisonProblem::outward_normal() const {
+  const double theta = benchmark == meshes::Benchmark::B5 ? contact_polar_angle_rad : 0.0;
+  return {std::sin(theta), 0.0, std::cos(theta)};
+}
+
+double ComparisonProblem::angle_to_normal_rad() const {
+  const double c = std::clamp(direction.normalized().dot(-outward_normal()), -1.0, 1.0);
+  return std::acos(c);
+}
+
+bool ComparisonProblem::ball_reaches_base() const {
+  return body_radius_m * outward_normal().z() < local_radius_m;
+}
 
 void ComparisonProblem::validate() const {
   const auto positive = [](const std::string& field, double value) {
@@ -909,49 +1093,157 @@ void ComparisonProblem::validate() const {
   positive("problem.tool_radius", tool_radius_m);
   positive("problem.local_radius", local_radius_m);
   material.validate();
-  if (benchmark != meshes::Benchmark::B2 && benchmark != meshes::Benchmark::B3)
-    throw std::invalid_argument("problem.benchmark must be B2 or B3");
+  if (benchmark != meshes::Benchmark::B2 && benchmark != meshes::Benchmark::B3 && benchmark != meshes::Benchmark::B5)
+    throw std::invalid_argument("problem.benchmark must be B2, B3 or B5");
   if (!(tool_radius_m < 0.5 * local_radius_m))
     throw std::invalid_argument("problem.tool_radius must be < problem.local_radius / 2");
+  if (benchmark == meshes::Benchmark::B5 &&
+      !(std::isfinite(contact_polar_angle_rad) && contact_polar_angle_rad >= 0 && contact_polar_angle_rad < M_PI / 2))
+    throw std::invalid_argument("problem.contact_polar_angle = " + format_number(contact_polar_angle_rad) +
+                                " rad must be in [0, pi/2)");
+  if (benchmark != meshes::Benchmark::B5 && contact_polar_angle_rad != 0)
+    throw std::invalid_argument("problem.contact_polar_angle is for benchmark B5 only (B2 and B3 push at the pole)");
   if (!direction.allFinite() || direction.norm() < 1e-12) throw std::invalid_argument("problem.direction must be non-zero");
+  // The tool must push into the body: d·n < 0 (a grazing d is allowed, a pulling one is not).
+  if (!(direction.normalized().dot(outward_normal()) < 0))
+    throw std::invalid_argument("problem.direction must point into the body (d . n < 0 at the contact point)");
   if (depths_m.empty()) throw std::invalid_argument("problem.depths is empty");
   for (std::size_t i = 0; i < depths_m.size(); ++i) {
     positive("problem.depths[" + std::to_string(i) + "]", depths_m[i]);
     if (i > 0 && !(depths_m[i] > depths_m[i - 1])) throw std::invalid_argument("problem.depths must be ascending");
   }
-  if (depths_m.back() > 0.5 * tool_radius_m)
-    throw std::invalid_argument("problem.depths: the largest depth must be <= a/2 (a linear, small-strain model)");
+  // Both models are linear (small strain): any depth only scales the force. Up to L/2 is
+  // allowed to test numerical stability; beyond that the tool would leave the MFS ball.
+  if (depths_m.back() > 0.5 * local_radius_m)
+    throw std::invalid_argument("problem.depths: the largest depth " + format_number(depths_m.back()) +
+                                " m must be <= L/2 = " + format_number(0.5 * local_radius_m) + " m (problem.local_radius / 2)");
 }
 
 void ComparisonStudy::validate() const {
   if (name.empty()) throw std::invalid_argument("study name is empty");
-  problem.validate();
-  reference.validate();
-  // Three levels give the Richardson value and its error estimate; two (a quick CI reference)
-  // give the finest mesh, reported without an error estimate.
-  if (reference.refinements.size() < 2)
-    throw std::invalid_argument("reference: needs >= 2 refinement levels (>= 3 for Richardson extrapolation)");
-  if (series.empty()) throw std::invalid_argument("no [mfs.<name>] series");
-  bool found = table2_mfs_series.empty();
-  for (const auto& s : series) {
-    s.study.validate();
-    found = found || s.name == table2_mfs_series;
+  if (problems.empty()) throw std::invalid_argument("no problem");
+  for (const auto& sp : problems) {
+    const std::string where = problems.size() > 1 ? "problems." + sp.name + ": " : "";
+    try {
+      sp.problem.validate();
+      sp.reference.validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(where + e.what());
+    }
+    // Three levels give the Richardson value and its error estimate; two (a quick CI
+    // reference) give the finest mesh, reported without an error estimate.
+    if (sp.reference.refinements.size() < 2)
+      throw std::invalid_argument(where + "reference: needs >= 2 refinement levels (>= 3 for Richardson extrapolation)");
+    if (sp.series.empty()) throw std::invalid_argument(where + "no [mfs.<name>] series");
+    for (const auto& s : sp.series) s.study.validate();
   }
-  if (!found) throw std::invalid_argument("table2.mfs_series = '" + table2_mfs_series + "' names no [mfs.<name>] series");
+  bool found = table2_mfs_series.empty();
+  for (const auto& s : first().series) found = found || s.name == table2_mfs_series;
+  if (!found)
+    throw std::invalid_argument("table2.mfs_series = '" + table2_mfs_series + "' names no [mfs.<name>] series of the first problem");
   tolerances.validate();
 }
+
+namespace {
+
+/// The [problem] keys of `table` (the base [problem] or a merged [problems.<name>]).
+ComparisonProblem read_problem(ConfigTable& problem) {
+  ComparisonProblem p;
+  p.benchmark = meshes::benchmark_from_string(problem.choice("benchmark", {"B2", "B3", "B5"}, "B3"));
+  p.body_radius_m = problem.quantity("body_radius", Dimension::length, p.body_radius_m);
+  p.tool_radius_m = problem.quantity("tool_radius", Dimension::length, p.tool_radius_m);
+  p.local_radius_m = problem.quantity("local_radius", Dimension::length, 5 * p.tool_radius_m);
+  p.contact_polar_angle_rad = problem.quantity("contact_polar_angle", Dimension::angle, 0.0);
+  p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
+  p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
+  p.contact = fem::contact_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
+  // The direction: given, or the inward normal tilted by `tilt` toward the base in the
+  // meridian plane (e_θ = (cos θ, 0, −sin θ)); at the pole with no tilt exactly (0, 0, −1).
+  if (problem.has("direction") && problem.has("tilt"))
+    throw ConfigError(problem.where("tilt") + ": give direction or tilt, not both");
+  const double tilt = problem.quantity("tilt", Dimension::angle, 0.0);
+  const double theta = p.benchmark == meshes::Benchmark::B5 ? p.contact_polar_angle_rad : 0.0;
+  const Eigen::Vector3d inward(0.0 - std::sin(theta), 0.0, -std::cos(theta));
+  const Eigen::Vector3d toward_base(std::cos(theta), 0.0, 0.0 - std::sin(theta));
+  const Eigen::Vector3d tilted = tilt == 0 ? inward : Eigen::Vector3d(std::cos(tilt) * inward + std::sin(tilt) * toward_base);
+  const auto direction = problem.vector3("direction", Dimension::dimensionless, {{tilted[0], tilted[1], tilted[2]}});
+  p.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
+  p.depths_m = problem.quantity_list("depths", Dimension::length, p.depths_m);
+  return p;
+}
+
+/// The [reference] keys (a `touchstone fem` file with mesh overrides) → the reference study.
+ReferenceStudy read_reference(ConfigTable& reference, const std::string& key, const std::string& directory,
+                              const ComparisonProblem& p) {
+  const std::string reference_path = resolve(directory, reference.string("config"));
+  const bool has_edges = reference.has("edge_sizes"), has_levels = reference.has("refinements");
+  const std::vector<double> edges = reference.quantity_list("edge_sizes", Dimension::length, {});
+  const std::vector<std::int64_t> levels = reference.integer_list("refinements", {});
+  ReferenceStudy study = read_fem_file(reference_path, key, p, true);
+  if (has_edges && !edges.empty()) {
+    // Mesh overrides keep the reference file's grading; edge sizes are the mesh families.
+    study.geometry.edge_size_m = edges.front();
+    study.edge_sizes_m = edges.size() > 1 ? edges : std::vector<double>{};
+  }
+  if (has_levels) study.refinements.assign(levels.begin(), levels.end());
+  return study;
+}
+
+/// The series of a problem: every [mfs.<name>] (or those `only` names) with the problem imposed,
+/// each marked when its resolved engine settings are the engine defaults.
+std::vector<MfsSeries> read_problem_series(const std::string& path, const toml::table& mfs_sections,
+                                           const std::vector<std::string>& only, const ComparisonProblem& p) {
+  std::vector<MfsSeries> list;
+  const MfsSeries defaults = read_series(path, "engine_defaults", toml::table{}, p);
+  const auto normalised = [&](MfsStudy s) {
+    // Everything but the name, the node counts and the output switch: the engine's settings
+    // and the problem (identical for every series of the problem).
+    s.name = defaults.study.name;
+    s.node_counts = defaults.study.node_counts;
+    s.model.sprinkling.node_count = defaults.study.model.sprinkling.node_count;
+    s.write_vtu = defaults.study.write_vtu;
+    return resolved_config_toml(s);
+  };
+  const std::string default_text = normalised(defaults.study);
+  for (const auto& [key, node] : mfs_sections) {
+    const std::string name(key.str());
+    if (!only.empty() && std::find(only.begin(), only.end(), name) == only.end()) continue;
+    if (!node.is_table()) throw ConfigError(path + ": mfs." + name + ": must be a table ([mfs." + name + "])");
+    MfsSeries s = read_series(path, name, *node.as_table(), p);
+    s.engine_default = normalised(s.study) == default_text;
+    list.push_back(std::move(s));
+  }
+  return list;
+}
+
+}  // namespace
 
 ComparisonStudy read_comparison_study(const std::string& path) {
   // Syntax errors with the file and line, as every other study file.
   { ConfigTable syntax_check = ConfigTable::from_file(path); }
   toml::table document = toml::parse_file(path);
   const std::string directory = fs::path(path).parent_path().string();
-  toml::table mfs_sections;
-  if (const toml::node* node = document.get("mfs")) {
-    if (!node->is_table()) throw ConfigError(path + ": mfs: must be a table of series, [mfs.<name>]");
-    mfs_sections = *node->as_table();
-    document.erase("mfs");
-  }
+  const auto take_table = [&](const char* key, const std::string& what) {
+    toml::table t;
+    if (const toml::node* node = document.get(key)) {
+      if (!node->is_table()) throw ConfigError(path + ": " + key + ": must be a table of " + what);
+      t = *node->as_table();
+      document.erase(key);
+    }
+    return t;
+  };
+  // Variants in file order: a TOML table is a sorted map, the source lines keep the order
+  // (read before the tables are copied, which drops them).
+  std::map<std::string, std::uint32_t> variant_lines;
+  if (const toml::table* t = document.get_as<toml::table>("problems"))
+    for (const auto& [key, node] : *t) variant_lines[std::string(key.str())] = node.source().begin.line;
+  const toml::table mfs_sections = take_table("mfs", "series, [mfs.<name>]");
+  const toml::table variant_sections = take_table("problems", "problem variants, [problems.<name>]");
+  const bool has_problem = document.contains("problem") && document.get("problem")->is_table();
+  const bool has_reference = document.contains("reference") && document.get("reference")->is_table();
+  const toml::table base_problem = has_problem ? *document.get("problem")->as_table() : toml::table{};
+  const toml::table base_reference = has_reference ? *document.get("reference")->as_table() : toml::table{};
+
   std::ostringstream rest;
   rest << document << "\n";
   ConfigTable config = ConfigTable::from_string(rest.str(), path);
@@ -960,29 +1252,11 @@ ComparisonStudy read_comparison_study(const std::string& path) {
   study.config_path = path;
   study.name = config.string("study", fs::path(path).stem().string());
 
+  // The base [problem] and [reference]: every key checked here; the problem itself is one of
+  // the study's problems only when there are no variants.
   ConfigTable problem = config.table("problem", true);
-  ComparisonProblem& p = study.problem;
-  p.benchmark = meshes::benchmark_from_string(problem.choice("benchmark", {"B2", "B3"}, "B3"));
-  p.body_radius_m = problem.quantity("body_radius", Dimension::length, p.body_radius_m);
-  p.tool_radius_m = problem.quantity("tool_radius", Dimension::length, p.tool_radius_m);
-  p.local_radius_m = problem.quantity("local_radius", Dimension::length, 5 * p.tool_radius_m);
-  p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
-  p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
-  p.contact = fem::contact_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
-  const auto direction = problem.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
-  p.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
-  p.depths_m = problem.quantity_list("depths", Dimension::length, p.depths_m);
-  try {
-    p.validate();
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(path + ": " + e.what());
-  }
-
+  ComparisonProblem p = read_problem(problem);
   ConfigTable reference = config.table("reference", true);
-  const std::string reference_path = resolve(directory, reference.string("config"));
-  const bool has_edges = reference.has("edge_sizes"), has_levels = reference.has("refinements");
-  const std::vector<double> edges = reference.quantity_list("edge_sizes", Dimension::length, {});
-  const std::vector<std::int64_t> levels = reference.integer_list("refinements", {});
 
   ConfigTable table2 = config.table("table2");
   const std::string fem_path = table2.string("fem", "");
@@ -998,26 +1272,91 @@ ComparisonStudy read_comparison_study(const std::string& path) {
   tol.force_error_points = ci.number("force_error_points", tol.force_error_points);
   tol.displacement_error_points = ci.number("displacement_error_points", tol.displacement_error_points);
   tol.reference_force_rel = ci.number("reference_force_rel", tol.reference_force_rel);
-  config.finish();
 
-  // Mesh overrides keep the reference file's grading; edge sizes are the mesh families.
-  const auto with_edges = [](ReferenceStudy& s, const std::vector<double>& e) {
-    s.geometry.edge_size_m = e.front();
-    s.edge_sizes_m = e.size() > 1 ? e : std::vector<double>{};
-  };
-  study.reference = read_fem_file(reference_path, path + ": reference.config", p, true);
-  if (has_edges && !edges.empty()) with_edges(study.reference, edges);
-  if (has_levels) study.reference.refinements.assign(levels.begin(), levels.end());
-  if (!fem_path.empty()) study.table2_fem = read_fem_file(resolve(directory, fem_path), path + ": table2.fem", p, false);
-  if (!full_path.empty()) {
-    study.table2_reference = read_fem_file(resolve(directory, full_path), path + ": table2.reference", p, false);
-    if (has_full_edges && !full_edges.empty()) with_edges(*study.table2_reference, full_edges);
+  if (variant_sections.empty()) {
+    try {
+      p.validate();
+    } catch (const std::invalid_argument& e) {
+      throw ConfigError(path + ": " + e.what());
+    }
+    StudyProblem sp;
+    sp.problem = p;
+    sp.reference = read_reference(reference, path + ": reference.config", directory, p);
+    config.finish();
+    sp.series = read_problem_series(path, mfs_sections, {}, p);
+    study.problems.push_back(std::move(sp));
+  } else {
+    // The base [reference] is only checked here (config is required in it too); each variant
+    // reads its own merged copy below.
+    (void)reference.string("config");
+    (void)reference.quantity_list("edge_sizes", Dimension::length, {});
+    (void)reference.integer_list("refinements", {});
+    config.finish();
+    std::vector<std::pair<std::string, const toml::table*>> variants;
+    std::vector<std::uint32_t> lines;
+    for (const auto& [key, node] : variant_sections) {
+      const std::string name(key.str());
+      if (!node.is_table()) throw ConfigError(path + ": problems." + name + ": must be a table ([problems." + name + "])");
+      if (name.empty() || name.find_first_of("/\\ \t\"'") != std::string::npos)
+        throw ConfigError(path + ": problems." + name + ": a variant name is a case-id prefix and a folder: no '/', spaces or quotes");
+      variants.push_back({name, node.as_table()});
+      lines.push_back(variant_lines[name]);
+    }
+    std::vector<std::size_t> order(variants.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return lines[x] < lines[y]; });
+    std::vector<std::string> series_names;
+    for (const auto& [key, node] : mfs_sections) series_names.emplace_back(key.str());
+    for (const std::size_t i : order) {
+      const auto& [name, variant] = variants[i];
+      // [problems.<name>] = [problem] with the variant's keys replaced; its `reference` table
+      // replaces keys of [reference]. Read under the variant's name, so that a wrong key is
+      // reported as problems.<name>.<key>.
+      toml::table merged = base_problem;
+      toml::table merged_reference = base_reference;
+      StudyProblem sp;
+      sp.name = name;
+      sp.id_prefix = name + "/";
+      for (const auto& [k, v] : *variant) {
+        const std::string key(k.str());
+        if (key == "reference" && v.is_table()) {
+          for (const auto& [rk, rv] : *v.as_table()) {
+            merged_reference.insert_or_assign(rk, rv);
+            sp.overridden_keys.push_back("reference." + std::string(rk.str()));
+          }
+          continue;
+        }
+        merged.insert_or_assign(k, v);
+        if (key != "series") sp.overridden_keys.push_back(key);
+      }
+      merged.insert_or_assign("reference", merged_reference);
+      std::ostringstream text;
+      text << toml::table{{"problems", toml::table{{name, merged}}}} << "\n";
+      ConfigTable variant_config = ConfigTable::from_string(text.str(), path);
+      ConfigTable vt = variant_config.table("problems").table(name);
+      sp.problem = read_problem(vt);
+      const std::vector<std::string> only = vt.choice_list("series", series_names, {});
+      ConfigTable vr = vt.table("reference", true);
+      try {
+        sp.problem.validate();
+      } catch (const std::invalid_argument& e) {
+        throw ConfigError(path + ": problems." + name + ": " + e.what());
+      }
+      sp.reference = read_reference(vr, path + ": problems." + name + ".reference.config", directory, sp.problem);
+      variant_config.finish();
+      sp.series = read_problem_series(path, mfs_sections, only, sp.problem);
+      study.problems.push_back(std::move(sp));
+    }
   }
 
-  for (const auto& [key, node] : mfs_sections) {
-    const std::string name(key.str());
-    if (!node.is_table()) throw ConfigError(path + ": mfs." + name + ": must be a table ([mfs." + name + "])");
-    study.series.push_back(read_series(path, name, *node.as_table(), p));
+  const ComparisonProblem& first = study.problems.front().problem;
+  if (!fem_path.empty()) study.table2_fem = read_fem_file(resolve(directory, fem_path), path + ": table2.fem", first, false);
+  if (!full_path.empty()) {
+    study.table2_reference = read_fem_file(resolve(directory, full_path), path + ": table2.reference", first, false);
+    if (has_full_edges && !full_edges.empty()) {
+      study.table2_reference->geometry.edge_size_m = full_edges.front();
+      study.table2_reference->edge_sizes_m = full_edges.size() > 1 ? full_edges : std::vector<double>{};
+    }
   }
   try {
     study.validate();
@@ -1039,6 +1378,55 @@ std::vector<double> mfs_force_ramp_N(const Eigen::Matrix3d& tool_stiffness_N_per
   forces.reserve(depths_m.size());
   for (const double depth : depths_m) forces.push_back((tool_stiffness_N_per_m * (depth * d)).dot(d));
   return forces;
+}
+
+AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direction) {
+  AccuracyIndicator a;
+  const Eigen::Vector3d d = direction.normalized();
+  const json& methods = at_path(c, {"qoi", "forces_by_method_N"});
+  const auto force = [&](const char* method) {
+    if (!methods.is_object() || !methods.contains(method)) return nan_value;
+    const json& v = methods.at(method);
+    return v.is_number() ? v.get<double>() : axial(v, d);
+  };
+  // The weak form's pair when both exist (Galerkin: K u at the tool and 2U/δ), else the
+  // strong form's pair (collocation's traction integral and the paper's partition).
+  for (const auto& pair : {std::pair<const char*, const char*>{"reaction", "energy_along_tool"},
+                           std::pair<const char*, const char*>{"traction_integral", "paper_partition"}}) {
+    const double f1 = force(pair.first), f2 = force(pair.second);
+    if (!std::isfinite(f1) || !std::isfinite(f2)) continue;
+    const double scale = std::max(std::abs(f1), std::abs(f2));
+    a.force_method_spread = scale > 0 ? std::abs(f1 - f2) / scale : 0.0;
+    a.force_methods = {pair.first, pair.second};
+    break;
+  }
+  // The moment-matrix statistics: over the collocation points (collocation) or the volume
+  // quadrature points (Galerkin); missing (NaN) in a case that failed before reporting them.
+  a.support_scale_max = value_or_nan(at_path(c, {"diagnostics"}), "max_support_scale_used");
+  a.rcond_min = value_or_nan(at_path(c, {"qoi"}), "min_rcond");
+  const json& params = at_path(c, {"params"});
+  const double e = value_or_nan(params, "youngs_modulus_Pa"), nu = value_or_nan(params, "poisson_ratio");
+  const double radius = value_or_nan(params, "tool_radius_m"), depth = value_or_nan(params, "depth_m");
+  const double half_space_N_per_m = 2 * e * radius / (1 - nu * nu);
+  a.stiffness_ratio = std::abs(axial(at_path(c, {"qoi", "force_N"}), d)) / depth / half_space_N_per_m;
+  if (!std::isfinite(a.stiffness_ratio)) a.stiffness_ratio = nan_value;
+  if (a.force_method_spread > force_method_spread_limit) a.flags.push_back("force_methods_disagree");
+  if (a.support_scale_max > 1 + support_growth_tolerance) a.flags.push_back("supports_grew");
+  const double threshold = value_or_nan(at_path(c, {"params"}), "min_rcond_threshold");
+  if (std::isfinite(a.rcond_min) && std::isfinite(threshold) && a.rcond_min < rcond_margin * threshold)
+    a.flags.push_back("ill_conditioned");
+  if (a.stiffness_ratio < stiffness_ratio_min || a.stiffness_ratio > stiffness_ratio_max)
+    a.flags.push_back("stiffness_implausible");
+  return a;
+}
+
+json to_json(const AccuracyIndicator& a) {
+  return {{"force_method_spread", number(a.force_method_spread)},
+          {"force_methods", a.force_methods},
+          {"support_scale_max", number(a.support_scale_max)},
+          {"rcond_min", number(a.rcond_min)},
+          {"stiffness_ratio", number(a.stiffness_ratio)},
+          {"flags", a.flags}};
 }
 
 ProbeComparison compare_probes(const json& probes, const json& reference_probes) {

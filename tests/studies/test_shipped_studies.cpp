@@ -8,6 +8,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -34,7 +35,7 @@ TEST(ShippedStudies, TheIssueFourStudiesAreShipped) {
   std::set<std::string> names;
   for (const auto& path : comparison_studies()) names.insert(path.stem().string());
   for (const char* expected : {"hemisphere", "ci_accuracy", "sprinkling", "paper_mode", "truncation", "formulation",
-                               "stability", "poisson_0p30", "poisson_0p45", "poisson_0p49"})
+                               "stability", "poisson"})
     EXPECT_TRUE(names.count(expected)) << "studies/" << expected << ".toml is missing or has no [problem] table";
 }
 
@@ -54,15 +55,54 @@ TEST(ShippedStudies, EveryComparisonStudyReadsAndHasMfsCases) {
     }();
     std::size_t cases = 0;
     std::set<std::string> ids;
-    for (const auto& series : study.series)
-      for (const int n : series.study.node_counts) {
-        ++cases;
-        EXPECT_TRUE(ids.insert("MFS-" + series.name + "-N" + std::to_string(n)).second)
-            << "duplicate case MFS-" << series.name << "-N" << n;
-      }
+    for (const auto& problem : study.problems) {
+      std::size_t problem_cases = 0;
+      for (const auto& series : problem.series)
+        for (const int n : series.study.node_counts) {
+          ++problem_cases;
+          const std::string id = problem.id_prefix + "MFS-" + series.name + "-N" + std::to_string(n);
+          EXPECT_TRUE(ids.insert(id).second) << "duplicate case " << id;
+        }
+      EXPECT_GE(problem_cases, 1u) << "problem " << problem.name << " has no MFS case";
+      cases += problem_cases;
+    }
     EXPECT_GE(cases, 1u);
     EXPECT_EQ(study.name, path.stem().string()) << "the study name should be the file's name (its default output folder)";
   }
+}
+
+}  // namespace
+
+namespace {
+
+/// The reworked stress test and Poisson study: one file each, several problems.
+TEST(ShippedStudies, StabilityAndPoissonCoverTheirRangesInOneFile) {
+  const std::string dir = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
+  const ComparisonStudy poisson = read_comparison_study(dir + "poisson.toml");
+  std::set<double> nus;
+  for (const auto& p : poisson.problems) nus.insert(p.problem.material.poisson_ratio);
+  EXPECT_EQ(nus, (std::set<double>{0.30, 0.45, 0.49}));
+
+  const ComparisonStudy stability = read_comparison_study(dir + "stability.toml");
+  double nu_max = 0, e_min = 1e300, e_max = 0, depth_over_l = 0;
+  bool near_base = false, grazing = false, b5 = false;
+  for (const auto& p : stability.problems) {
+    const ComparisonProblem& q = p.problem;
+    nu_max = std::max(nu_max, q.material.poisson_ratio);
+    e_min = std::min(e_min, q.material.youngs_modulus_Pa);
+    e_max = std::max(e_max, q.material.youngs_modulus_Pa);
+    depth_over_l = std::max(depth_over_l, q.max_depth_m() / q.local_radius_m);
+    b5 = b5 || q.benchmark == touchstone::meshes::Benchmark::B5;
+    near_base = near_base || (q.benchmark == touchstone::meshes::Benchmark::B5 && q.ball_reaches_base());
+    grazing = grazing || q.angle_to_normal_rad() >= 60 * M_PI / 180 - 1e-12;
+  }
+  EXPECT_DOUBLE_EQ(nu_max, 0.499);
+  EXPECT_DOUBLE_EQ(e_min, 1.0);
+  EXPECT_DOUBLE_EQ(e_max, 1e9);
+  EXPECT_NEAR(depth_over_l, 0.5, 1e-12);
+  EXPECT_TRUE(b5);
+  EXPECT_TRUE(near_base);
+  EXPECT_TRUE(grazing);
 }
 
 }  // namespace

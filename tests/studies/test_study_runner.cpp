@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -82,8 +83,12 @@ paper_mode = true
 };
 
 TEST_F(StudyFiles, ProblemIsImposedOnTheReferenceAndEverySeries) {
-  const ComparisonStudy s = read_comparison_study(write("s.toml", study_text()));
-  EXPECT_EQ(s.name, "s");
+  const ComparisonStudy study = read_comparison_study(write("s.toml", study_text()));
+  EXPECT_EQ(study.name, "s");
+  // No [problems.*]: one problem, case ids without a prefix.
+  ASSERT_EQ(study.problems.size(), 1u);
+  EXPECT_EQ(study.first().id_prefix, "");
+  const StudyProblem& s = study.first();
   // The reference file's own geometry, material, depth and contact sweep are replaced.
   EXPECT_DOUBLE_EQ(s.reference.geometry.body_radius_m, 0.05);
   EXPECT_DOUBLE_EQ(s.reference.geometry.tool_radius_m, 0.0025);
@@ -107,13 +112,14 @@ TEST_F(StudyFiles, ProblemIsImposedOnTheReferenceAndEverySeries) {
   EXPECT_DOUBLE_EQ(g.study.model.sprinkling.local_radius_m, 0.0125);
   EXPECT_NEAR(g.study.direction.z(), -1.0, 1e-15);
   EXPECT_TRUE(s.series[1].study.model.paper_mode);
-  EXPECT_EQ(s.table2_mfs_series, "p");
+  EXPECT_EQ(study.table2_mfs_series, "p");
 }
 
 TEST_F(StudyFiles, ReferenceOverridesReplaceFamiliesAndLevels) {
-  const ComparisonStudy s = read_comparison_study(
+  const ComparisonStudy study = read_comparison_study(
       write("s.toml", replaced(study_text(), "config = \"ref.toml\"",
                                "config = \"ref.toml\"\nedge_sizes = [\"1 mm\"]\nrefinements = [1, 2, 3]")));
+  const StudyProblem& s = study.first();
   EXPECT_TRUE(s.reference.edge_sizes_m.empty());
   EXPECT_DOUBLE_EQ(s.reference.geometry.edge_size_m, 1e-3);
   EXPECT_EQ(s.reference.refinements, (std::vector<int>{1, 2, 3}));
@@ -144,6 +150,215 @@ TEST_F(StudyFiles, ErrorsNameTheFileAndTheKey) {
   // Table 2 must name a series.
   m = message(replaced(study_text(), "mfs_series = \"p\"", "mfs_series = \"q\""));
   EXPECT_NE(m.find("table2.mfs_series"), std::string::npos) << m;
+}
+
+/// `text` read as a study; the ConfigError's message, or "no error".
+std::string read_error(const std::string& path) {
+  try {
+    read_comparison_study(path);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST_F(StudyFiles, VariantsAreProblemsInFileOrderWithTheirOwnReferences) {
+  write("ref_b5.toml", R"(study = "ref_b5"
+[geometry]
+benchmark = "B5"
+body_radius = "50 mm"
+tool_radius = "2.5 mm"
+[mesh]
+edge_size = "0.5 mm"
+refinements = [0, 1]
+)");
+  write("ref_other.toml", replaced(R"(study = "ref_other"
+[geometry]
+benchmark = "B3"
+local_radius = "10 mm"
+body_radius = "40 mm"
+tool_radius = "2 mm"
+[mesh]
+edge_size = "1 mm"
+refinements = [0, 1, 2]
+)", "1 mm", "1.25 mm"));
+  // Written out of alphabetical order: the study keeps the file's order.
+  const ComparisonStudy study = read_comparison_study(write("v.toml", study_text("", R"(
+[problems.nu0p3]
+poisson_ratio = 0.3
+[problems.E1GPa]
+youngs_modulus = "1 GPa"
+series = ["g"]
+[problems.E1GPa.reference]
+config = "ref_other.toml"
+[problems.b5]
+benchmark = "B5"
+contact_polar_angle = "80 deg"
+tilt = "60 deg"
+depths = ["1 mm", "6.25 mm"]
+series = ["g"]
+[problems.b5.reference]
+config = "ref_b5.toml"
+)")));
+  ASSERT_EQ(study.problems.size(), 3u);
+  EXPECT_EQ(study.problems[0].name, "nu0p3");
+  EXPECT_EQ(study.problems[1].name, "E1GPa");
+  EXPECT_EQ(study.problems[2].name, "b5");
+  EXPECT_EQ(study.problems[0].id_prefix, "nu0p3/");
+
+  // ν = 0.3: the base with one value replaced, in the reference and in every series.
+  const StudyProblem& nu = study.problems[0];
+  EXPECT_DOUBLE_EQ(nu.problem.material.poisson_ratio, 0.3);
+  EXPECT_DOUBLE_EQ(nu.problem.material.youngs_modulus_Pa, 12e3);  // the base's
+  EXPECT_DOUBLE_EQ(nu.reference.material.poisson_ratio, 0.3);
+  ASSERT_EQ(nu.series.size(), 2u);
+  EXPECT_DOUBLE_EQ(nu.series[0].study.material.poisson_ratio, 0.3);
+  EXPECT_EQ(nu.overridden_keys, (std::vector<std::string>{"poisson_ratio"}));
+
+  // E = 1 GPa on another reference file, one series.
+  const StudyProblem& e = study.problems[1];
+  EXPECT_DOUBLE_EQ(e.problem.material.youngs_modulus_Pa, 1e9);
+  EXPECT_DOUBLE_EQ(e.problem.material.poisson_ratio, 0.4);
+  EXPECT_EQ(e.reference.name, "ref_other");
+  EXPECT_DOUBLE_EQ(e.reference.geometry.edge_size_m, 1.25e-3);
+  EXPECT_DOUBLE_EQ(e.reference.material.youngs_modulus_Pa, 1e9);
+  ASSERT_EQ(e.series.size(), 1u);
+  EXPECT_EQ(e.series[0].name, "g");
+
+  // B5 near the base with a grazing tool: θ and the direction reach both models.
+  const StudyProblem& b5 = study.problems[2];
+  const double theta = 80 * M_PI / 180, tilt = 60 * M_PI / 180;
+  EXPECT_EQ(b5.reference.geometry.benchmark, meshes::Benchmark::B5);
+  EXPECT_NEAR(b5.reference.geometry.contact_polar_angle_rad, theta, 1e-14);
+  EXPECT_NEAR(b5.series[0].study.geometry.contact_polar_angle_rad, theta, 1e-14);
+  EXPECT_EQ(b5.series[0].study.geometry.benchmark, meshes::Benchmark::B5);
+  // d = cos(tilt)(−n) + sin(tilt) e_θ with n = (sin θ, 0, cos θ), e_θ = (cos θ, 0, −sin θ).
+  const Eigen::Vector3d d(-std::cos(tilt) * std::sin(theta) + std::sin(tilt) * std::cos(theta), 0,
+                          -std::cos(tilt) * std::cos(theta) - std::sin(tilt) * std::sin(theta));
+  EXPECT_NEAR((b5.problem.direction - d).norm(), 0, 1e-14);
+  EXPECT_NEAR((b5.reference.punch.direction.normalized() - d).norm(), 0, 1e-14);
+  EXPECT_NEAR((b5.series[0].study.direction.normalized() - d).norm(), 0, 1e-14);
+  EXPECT_NEAR(b5.problem.angle_to_normal_rad(), tilt, 1e-12);
+  EXPECT_TRUE(b5.problem.ball_reaches_base());     // R cos 80° = 8.7 mm < L = 12.5 mm
+  EXPECT_TRUE(b5.problem.beyond_small_strain());   // 6.25 mm > a/2
+  EXPECT_FALSE(nu.problem.ball_reaches_base());
+  EXPECT_FALSE(nu.problem.beyond_small_strain());
+  // The MFS ball is the problem's L on B5 as on B3.
+  EXPECT_DOUBLE_EQ(b5.series[0].study.model.sprinkling.local_radius_m, 0.0125);
+}
+
+TEST_F(StudyFiles, AVariantsUnknownKeyNamesTheFileTheVariantAndTheKey) {
+  std::string m = read_error(write("bad.toml", study_text("", "[problems.soft]\npoissson_ratio = 0.3\n")));
+  EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("problems.soft"), std::string::npos) << m;
+  EXPECT_NE(m.find("poissson_ratio"), std::string::npos) << m;
+  // An unknown key in a variant's reference table, and a series that does not exist.
+  m = read_error(write("bad.toml", study_text("", "[problems.soft.reference]\nrefinement = [0, 1]\n")));
+  EXPECT_NE(m.find("problems.soft.reference"), std::string::npos) << m;
+  EXPECT_NE(m.find("refinement"), std::string::npos) << m;
+  m = read_error(write("bad.toml", study_text("", "[problems.soft]\nseries = [\"nope\"]\n")));
+  EXPECT_NE(m.find("problems.soft.series"), std::string::npos) << m;
+  // A bad value names the variant.
+  m = read_error(write("bad.toml", study_text("", "[problems.soft]\npoisson_ratio = 0.7\n")));
+  EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("problems.soft"), std::string::npos) << m;
+}
+
+TEST_F(StudyFiles, DepthsUpToHalfTheLocalRadiusAreAccepted) {
+  // L = 12.5 mm: 6.25 mm (L/2, far beyond a/2 = 1.25 mm) is accepted, 6.3 mm is not.
+  const ComparisonStudy deep = read_comparison_study(write(
+      "deep.toml", replaced(study_text(), "depths = [\"0.1 mm\", \"0.2 mm\"]", "depths = [\"1 mm\", \"6.25 mm\"]")));
+  EXPECT_DOUBLE_EQ(deep.first().reference.punch.depth_m, 6.25e-3);
+  EXPECT_DOUBLE_EQ(deep.first().series[0].study.depth_m, 6.25e-3);
+  EXPECT_TRUE(deep.first().problem.beyond_small_strain());
+  const std::string m =
+      read_error(write("deep.toml", replaced(study_text(), "depths = [\"0.1 mm\", \"0.2 mm\"]", "depths = [\"6.3 mm\"]")));
+  EXPECT_NE(m.find("L/2"), std::string::npos) << m;
+  EXPECT_NE(m.find("deep.toml"), std::string::npos) << m;
+}
+
+TEST_F(StudyFiles, TheEngineDefaultSeriesIsFoundBySettingsNotByName) {
+  // "zz" has the engine's settings under an unremarkable name; "galerkin" (the default
+  // formulation's name) has one knob changed; "p" is the paper mode.
+  const ComparisonStudy s = read_comparison_study(write("d.toml", study_text("", R"(
+[mfs.zz.sprinkling]
+node_count = [60]
+seed = 1
+[mfs.galerkin]
+formulation = "galerkin"
+[mfs.galerkin.sprinkling]
+radius_factor = 2.0
+)")));
+  int defaults = 0;
+  for (const auto& series : s.first().series) {
+    SCOPED_TRACE(series.name);
+    // The engine's default formulation, spelled out, is still the default: "g" is.
+    const bool expected = series.name == "zz" || series.name == "g";
+    EXPECT_EQ(series.engine_default, expected);
+    defaults += series.engine_default ? 1 : 0;
+  }
+  EXPECT_EQ(defaults, 2);
+  // Only non-default series: none is marked.
+  const ComparisonStudy none = read_comparison_study(write("n.toml", replaced(study_text(), "[mfs.g]\nformulation = \"galerkin\"\n",
+                                                                             "[mfs.g]\nformulation = \"collocation\"\n")));
+  for (const auto& series : none.first().series) EXPECT_FALSE(series.engine_default) << series.name;
+}
+
+TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {
+  const Eigen::Vector3d d(0, 0, -1);
+  // A clean Galerkin-like case: reaction and energy 5 % apart, well-conditioned, no growth.
+  // E = 10 kPa, ν = 0.45, a = 2.5 mm, δ = 0.25 mm: the half-space force 2 E a δ / (1 − ν²) = 15.674 mN.
+  const json params{{"min_rcond_threshold", 1e-12}, {"youngs_modulus_Pa", 1e4}, {"poisson_ratio", 0.45},
+                    {"tool_radius_m", 0.0025}, {"depth_m", 0.25e-3}};
+  const double half_space_N = 2 * 1e4 * 0.0025 * 0.25e-3 / (1 - 0.45 * 0.45);
+  json clean{{"qoi", {{"force_N", {0.0, 0.0, -0.020}},
+                      {"forces_by_method_N", {{"reaction", {0.0, 0.0, -0.020}}, {"energy_along_tool", 0.019},
+                                              {"traction_integral", {0.0, 0.0, -0.013}}, {"paper_partition", nullptr}}},
+                      {"min_rcond", 1.0}}},
+             {"diagnostics", {{"max_neighbours", 0}, {"max_support_scale_used", 1.0}}},
+             {"params", params}};
+  AccuracyIndicator a = accuracy_indicator(clean, d);
+  EXPECT_NEAR(a.force_method_spread, 0.001 / 0.020, 1e-12);
+  EXPECT_NEAR(a.stiffness_ratio, 0.020 / half_space_N, 1e-12);  // 1.28: a plausible punch
+  EXPECT_EQ(a.force_methods, (std::vector<std::string>{"reaction", "energy_along_tool"}));
+  EXPECT_DOUBLE_EQ(a.rcond_min, 1.0);
+  EXPECT_DOUBLE_EQ(a.support_scale_max, 1.0);
+  EXPECT_TRUE(a.flags.empty());
+
+  // Reaction 3x the energy force, supports grown 2x, rcond within 100x of the threshold.
+  json bad = clean;
+  bad["qoi"]["forces_by_method_N"]["reaction"] = {0.0, 0.0, -0.060};
+  bad["diagnostics"] = {{"max_neighbours", 40}, {"max_support_scale_used", 2.0}};
+  bad["qoi"]["min_rcond"] = 5e-11;
+  bad["qoi"]["force_N"] = {0.0, 0.0, -0.070};  // 4.47x the half-space: implausibly stiff
+  a = accuracy_indicator(bad, d);
+  EXPECT_NEAR(a.force_method_spread, (0.060 - 0.019) / 0.060, 1e-12);
+  EXPECT_EQ(a.flags, (std::vector<std::string>{"force_methods_disagree", "supports_grew", "ill_conditioned",
+                                                "stiffness_implausible"}));
+  // Just inside the bounds, and below the lower one.
+  bad = clean;
+  bad["qoi"]["force_N"] = {0.0, 0.0, -0.0620};  // 3.96x
+  EXPECT_TRUE(accuracy_indicator(bad, d).flags.empty());
+  bad["qoi"]["force_N"] = {0.0, 0.0, -0.0038};  // 0.24x
+  EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"stiffness_implausible"}));
+
+  // Collocation (no reaction/energy): the traction integral against the paper's partition.
+  json collocation{{"qoi", {{"force_N", {0.0, 0.0, -0.010}},
+                            {"forces_by_method_N", {{"reaction", nullptr}, {"energy_along_tool", nullptr},
+                                                    {"traction_integral", {0.0, 0.0, -0.010}},
+                                                    {"paper_partition", {0.0, 0.0, -0.0101}}}},
+                            {"min_rcond", 1e-6}}},
+                   {"diagnostics", {{"max_neighbours", 30}, {"max_support_scale_used", 1.0}}},
+                   {"params", params}};
+  a = accuracy_indicator(collocation, d);
+  EXPECT_NEAR(a.force_method_spread, 0.0001 / 0.0101, 1e-12);
+  EXPECT_DOUBLE_EQ(a.rcond_min, 1e-6);
+  EXPECT_DOUBLE_EQ(a.support_scale_max, 1.0);
+  EXPECT_TRUE(a.flags.empty());
+  // A failed case has no forces: no spread, no force flag.
+  a = accuracy_indicator(json{{"qoi", {{"forces_by_method_N", nullptr}}}}, d);
+  EXPECT_TRUE(std::isnan(a.force_method_spread));
+  EXPECT_TRUE(a.flags.empty());
 }
 
 TEST(ProbeComparison, MatchesByNameAndSkipsMissingProbes) {

@@ -60,6 +60,8 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
   for (std::size_t q = 0; q < volume.points.size(); ++q) {
     evaluate_mls(volume.points[q], cloud.positions, cloud.radii, all_nodes, settings.mls, Derivatives::gradients, mls);
     if (mls.status != MlsStatus::ok) return fail(mls.status, static_cast<int>(q));
+    system.min_rcond = std::min(system.min_rcond, mls.rcond);
+    system.max_support_scale = std::max(system.max_support_scale, mls.support_scale);
     const int k = static_cast<int>(mls.neighbours.size());
     strain.setZero(6, 3 * k);
     for (int a = 0; a < k; ++a) {

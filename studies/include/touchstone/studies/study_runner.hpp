@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,17 +28,31 @@ namespace touchstone::studies {
 
 /// The problem both models solve; imposed on every FEM and MFS sub-study of the study.
 struct ComparisonProblem {
-  meshes::Benchmark benchmark = meshes::Benchmark::B3;
+  meshes::Benchmark benchmark = meshes::Benchmark::B3;  ///< B2, B3 or B5
   double body_radius_m = 0.05;    ///< R
   double tool_radius_m = 0.0025;  ///< a
-  double local_radius_m = 0.0125; ///< L (B3: the domain; the MFS local ball)
+  /// L [m]: B3's domain and the MFS local ball (organ ∩ ball(contact, L)) on every benchmark.
+  double local_radius_m = 0.0125;
+  /// B5: polar angle θ [rad] of the tool patch centre on the hemisphere (0: the pole). The
+  /// contact point is R (sin θ, 0, cos θ); the base z = 0 is clamped in the FEM only.
+  double contact_polar_angle_rad = 0.0;
   fem::Material material;
   fem::Contact contact = fem::Contact::frictionless;
   Eigen::Vector3d direction{0.0, 0.0, -1.0};  ///< d, normalised when used
-  /// The tool-tip depth ramp δ_i [m] (ascending, > 0). Both models are linear: each case is
-  /// solved once at max δ and the ramp is K_t δ_i d (MFS) or F_ref δ_i / δ_max (FEM).
+  /// The tool-tip depth ramp δ_i [m] (ascending, > 0, δ_max ≤ L/2). Both models are linear
+  /// (small strain): each case is solved once at max δ and the ramp is K_t δ_i d (MFS) or
+  /// F_ref δ_i / δ_max (FEM), so depths beyond a/2 test numerical stability, not physics.
   std::vector<double> depths_m{0.05e-3, 0.10e-3, 0.15e-3, 0.20e-3, 0.25e-3};
   double max_depth_m() const { return depths_m.back(); }
+  /// Outward surface normal at the contact point (e_z on B2/B3).
+  Eigen::Vector3d outward_normal() const;
+  /// Angle between d and the inward normal −n [rad]: 0 pushes straight in, near π/2 grazes.
+  double angle_to_normal_rad() const;
+  /// δ_max > a/2: beyond where the linear small-strain model means anything physically.
+  bool beyond_small_strain() const { return max_depth_m() > 0.5 * tool_radius_m; }
+  /// B5 near the base: the MFS ball(contact, L) reaches the clamped base plane (R cos θ < L),
+  /// which the MFS engine treats as a free surface.
+  bool ball_reaches_base() const;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -47,6 +62,24 @@ struct MfsSeries {
   std::string name;          ///< the key of [mfs.<name>]
   MfsStudy study;            ///< geometry, material and tool already set from the problem
   std::string config_text;   ///< the series as the TOML it was read from (for its hash)
+  /// Its resolved engine settings equal the engine defaults (realtime::mfs::LocalModelSettings{}
+  /// with the MFS study reader's defaults), compared by value whatever the series is named.
+  bool engine_default = false;
+};
+
+/// One problem of a study with its own FEM reference and its MFS series. A study without
+/// [problems.<name>] tables has one, named "base", whose case ids carry no prefix; with them,
+/// each [problems.<name>] is [problem] with the table's keys replaced, and its case ids start
+/// with "<name>/".
+struct StudyProblem {
+  std::string name = "base";
+  std::string id_prefix;  ///< "" or "<name>/"
+  ComparisonProblem problem;
+  /// The converged reference on the problem's own domain (≥ 2 levels; ≥ 3 for an estimate).
+  ReferenceStudy reference;
+  std::vector<MfsSeries> series;
+  /// The keys the variant replaced ("poisson_ratio", "reference.config", ...), for the report.
+  std::vector<std::string> overridden_keys;
 };
 
 /// Allowed drift against the baseline, in physical terms.
@@ -61,16 +94,16 @@ struct RegressionTolerances {
 struct ComparisonStudy {
   std::string name = "study";
   std::string config_path;  ///< the file it was read from
-  ComparisonProblem problem;
-  /// The converged reference on the problem's own domain (≥ 3 levels).
-  ReferenceStudy reference;
+  /// The problems in file order (at least one). The first one's cases give Table 2 and the
+  /// summary fields of results.json ("problem", "reference_summary").
+  std::vector<StudyProblem> problems;
+  const StudyProblem& first() const { return problems.front(); }
   /// Table 2: the FE model at the paper's size (one level) and the converged reference of its
-  /// domain (B2); both optional.
+  /// domain (B2); both optional, on the first problem's material and tool.
   std::optional<ReferenceStudy> table2_fem;
   std::optional<ReferenceStudy> table2_reference;
   /// The MFS series giving the Table 2 MFS row (its first node count; the paper: 34).
   std::string table2_mfs_series;
-  std::vector<MfsSeries> series;
   /// CI: the baseline file ([ci] baseline, relative to the study file) and its tolerances.
   /// `touchstone study` checks a run against it when it exists; `touchstone study accept`
   /// rewrites it. Empty: no baseline.
@@ -82,14 +115,17 @@ struct ComparisonStudy {
 
 /// Reads a study file. `[reference] config`, `[table2] fem|reference` name `touchstone fem`
 /// files and `[mfs.<name>]` tables are `touchstone mfs` sections without [geometry],
-/// [material] and [tool] (the problem gives those). Errors name the file and the key.
+/// [material] and [tool] (the problem gives those). `[problems.<name>]` tables are variants of
+/// [problem]: any [problem] key, plus `series` (the [mfs.<name>] series to run on it; default
+/// all) and a `[problems.<name>.reference]` table replacing [reference] keys (e.g. another
+/// `config`). Errors name the file and the key.
 ComparisonStudy read_comparison_study(const std::string& path);
 
 struct StudyRunOptions {
   std::string output_directory;                  ///< empty: output/<study name>
   std::string cache_directory = ".cache/touchstone";
-  /// Run only cases whose id contains one of these substrings (FEM references always run:
-  /// every error needs them). Empty: all.
+  /// Run only cases whose id contains one of these substrings (a problem's FEM reference runs
+  /// when any of its MFS cases is selected, and always in a one-problem study). Empty: all.
   std::vector<std::string> only;
   bool quiet = false;
   bool write_report = true;
@@ -110,6 +146,46 @@ nlohmann::json run_comparison_study(const ComparisonStudy& study, const StudyRun
 /// The per-depth tool force along d [N] of a case: K_t (δ d) · d for the MFS.
 std::vector<double> mfs_force_ramp_N(const Eigen::Matrix3d& tool_stiffness_N_per_m, const Eigen::Vector3d& direction,
                                      const std::vector<double>& depths_m);
+
+/// Accuracy indicator of an MFS case that ended "ok" (reference-free: what the engine itself
+/// reports). Thresholds are named constants, documented with their reasons.
+struct AccuracyIndicator {
+  /// (max − min) / max |F| over the independent force estimators along d: reaction and
+  /// energy (the weak form's pair, equal for a self-consistent discrete equilibrium) when both
+  /// are finite, else traction integral and the paper's partition. NaN: fewer than two.
+  double force_method_spread = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::string> force_methods;  ///< the estimators compared
+  double support_scale_max = std::numeric_limits<double>::quiet_NaN();  ///< NaN: not reported
+  double rcond_min = std::numeric_limits<double>::quiet_NaN();          ///< NaN: not reported
+  /// k / k_hs: the tool stiffness along d, F·d / δ, over the half-space flat-punch stiffness
+  /// k_hs = 2 E a / (1 − ν²) (Sneddon). NaN: no force.
+  double stiffness_ratio = std::numeric_limits<double>::quiet_NaN();
+  /// "force_methods_disagree", "supports_grew", "ill_conditioned", "stiffness_implausible"
+  std::vector<std::string> flags;
+};
+/// Flag "force_methods_disagree" above this spread: default Galerkin cases measured 2–11 %
+/// at N ≥ 100 on B3, broken ones (tiny supports that grew: +6656 % error) 69 %.
+constexpr double force_method_spread_limit = 0.15;
+/// Flag "supports_grew" when the largest adaptive support growth exceeds 1 by more than this
+/// (the engine grows supports where the moment matrix is singular: the layout was too sparse).
+constexpr double support_growth_tolerance = 1e-9;
+/// Flag "ill_conditioned" when the smallest moment-matrix rcond is within this factor of the
+/// engine's own failure threshold ([mls] min_rcond): shape functions on the edge of failing.
+constexpr double rcond_margin = 100.0;
+
+/// Flag "stiffness_implausible" outside [min, max] × k_hs. A rigid flat punch on a body whose
+/// clamped boundary is at least 2a away (L > 2a) is within a small factor of the half-space:
+/// B2 (R = 20a) 1.16×, B3 at L = 5a 1.6×, bonded ≈ frictionless as ν → 0.5, a free base near
+/// the patch softer. Tiny Galerkin supports that grew gave 12× with the force estimators agreeing
+/// (their spread 9 %): this bound is what catches them.
+constexpr double stiffness_ratio_min = 0.25;
+constexpr double stiffness_ratio_max = 4.0;
+
+/// The indicator of an MFS case's JSON (qoi.force_N, qoi.forces_by_method_N, qoi.min_rcond,
+/// diagnostics, params: min_rcond_threshold, youngs_modulus_Pa, poisson_ratio, tool_radius_m,
+/// depth_m) for the tool direction d.
+AccuracyIndicator accuracy_indicator(const nlohmann::json& mfs_case, const Eigen::Vector3d& direction);
+nlohmann::json to_json(const AccuracyIndicator& indicator);
 
 /// Relative L2 and max-abs difference [m] of probe displacements matched by name (a probe
 /// missing or not found in either list is skipped); `count` is the number compared.

@@ -63,6 +63,9 @@ struct GalerkinSystem {
   std::vector<double> patch_node_shape_integral_m2;
   Eigen::MatrixXd patch_node_mass_m2;  ///< ∫_patch h_a h_b dA over the patch nodes [m²]
   double penalty_Pa_per_m = 0;
+  /// Over the volume quadrature points: the smallest rcond of the moment matrix and the largest
+  /// support growth the shape functions needed (1: none) — how close the model came to failing.
+  double min_rcond = 1, max_support_scale = 1;
   MlsStatus status = MlsStatus::ok;
   int failed_point = -1;  ///< index of the quadrature point (volume, then patch, then cut) that failed
 };
