@@ -484,26 +484,22 @@ class StudyRun {
   }
 
   json series_json() const {
+    const auto entry = [](const MfsSeries& s) {
+      return json{{"name", s.name},
+                  {"formulation", mfs::to_string(s.study.model.formulation)},
+                  {"paper_mode", s.study.model.paper_mode},
+                  {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
+                  {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
+                  {"node_counts", s.study.node_counts},
+                  {"engine_default", s.engine_default}};
+    };
     json list = json::array();
-    for (const auto& s : study_.first().series)
-      list.push_back({{"name", s.name},
-                      {"formulation", mfs::to_string(s.study.model.formulation)},
-                      {"paper_mode", s.study.model.paper_mode},
-                      {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
-                      {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
-                      {"node_counts", s.study.node_counts},
-                      {"engine_default", s.engine_default}});
+    for (const auto& s : study_.first().series) list.push_back(entry(s));
     // Series that run on other problems only (a variant's `series` subset) are listed too.
     for (const auto& sp : study_.problems)
       for (const auto& s : sp.series)
         if (std::none_of(list.begin(), list.end(), [&](const json& e) { return e.at("name") == s.name; }))
-          list.push_back({{"name", s.name},
-                          {"formulation", mfs::to_string(s.study.model.formulation)},
-                          {"paper_mode", s.study.model.paper_mode},
-                          {"basis", s.study.model.collocation.mls.basis == mfs::Basis::quadratic ? "quadratic" : "linear"},
-                          {"haptic_method", mfs::to_string(s.study.model.force.haptic_method)},
-                          {"node_counts", s.study.node_counts},
-                          {"engine_default", s.engine_default}});
+          list.push_back(entry(s));
     return list;
   }
 

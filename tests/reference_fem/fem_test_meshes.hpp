@@ -33,6 +33,25 @@ inline std::string unit_cube_mesh(double h, const std::string& name) {
   return path;
 }
 
+/// The unit-cube manufactured-solution problem: `field` (u(x), traction(x, n), body_force(x))
+/// prescribed as displacement on x_min, y_min, z_min, y_max and as traction on x_max, z_max,
+/// with its body force and exact displacement (for the L2 error).
+template <class Field>
+ElasticityProblem manufactured_cube_problem(const Field& field, const Material& material, double h,
+                                            const std::string& mesh_name) {
+  ElasticityProblem problem;
+  problem.mesh_path = unit_cube_mesh(h, mesh_name);
+  problem.material = material;
+  problem.clamped_boundaries.clear();
+  for (const auto& face : {"x_min", "y_min", "z_min", "y_max"})
+    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, [field](const Eigen::Vector3d& x) { return field.u(x); }});
+  problem.conditions.push_back({"x_max", BoundaryCondition::Kind::traction, [field](const Eigen::Vector3d& x) { return field.traction(x, {1, 0, 0}); }});
+  problem.conditions.push_back({"z_max", BoundaryCondition::Kind::traction, [field](const Eigen::Vector3d& x) { return field.traction(x, {0, 0, 1}); }});
+  problem.body_force = [field](const Eigen::Vector3d& x) { return field.body_force(x); };
+  problem.exact_displacement = [field](const Eigen::Vector3d& x) { return field.u(x); };
+  return problem;
+}
+
 /// A coarse B2 hemisphere (R = 50 mm, a = 5 mm) for punch tests.
 inline std::string coarse_hemisphere_mesh(const std::string& name) {
   meshes::MeshParameters parameters;

@@ -164,16 +164,7 @@ struct IncompressibleManufactured {
 double incompressible_l2_error(Formulation formulation, double h, const std::string& mesh_name) {
   const Material material{10.0e3, 0.4999};
   const IncompressibleManufactured m{2.0, 1.0e-3, material.lame_lambda_Pa(), material.shear_modulus_Pa()};
-  ElasticityProblem problem;
-  problem.mesh_path = testing::unit_cube_mesh(h, mesh_name);
-  problem.material = material;
-  problem.clamped_boundaries.clear();
-  for (const auto& face : {"x_min", "y_min", "z_min", "y_max"})
-    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, [m](const Eigen::Vector3d& x) { return m.u(x); }});
-  problem.conditions.push_back({"x_max", BoundaryCondition::Kind::traction, [m](const Eigen::Vector3d& x) { return m.traction(x, {1, 0, 0}); }});
-  problem.conditions.push_back({"z_max", BoundaryCondition::Kind::traction, [m](const Eigen::Vector3d& x) { return m.traction(x, {0, 0, 1}); }});
-  problem.body_force = [m](const Eigen::Vector3d& x) { return m.body_force(x); };
-  problem.exact_displacement = [m](const Eigen::Vector3d& x) { return m.u(x); };
+  ElasticityProblem problem = testing::manufactured_cube_problem(m, material, h, mesh_name);
   problem.solver.formulation = formulation;
   problem.solver.solver = LinearSolver::direct_mumps;
   return solve_elasticity(problem).l2_error_m;
