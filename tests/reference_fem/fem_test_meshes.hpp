@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 
 namespace touchstone::fem::testing {
 
@@ -31,6 +32,42 @@ inline std::string unit_cube_mesh(double h, const std::string& name) {
   if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
   MpiSession::barrier();
   return path;
+}
+
+/// The patch-test field u = G x + c [m], with a full (non-symmetric) G and tr G ≠ 0.
+inline Eigen::Matrix3d affine_gradient() {
+  Eigen::Matrix3d g;
+  g << 1.0e-3, 2.0e-4, -3.0e-4, 5.0e-4, -2.0e-3, 1.0e-4, -4.0e-4, 3.0e-4, 1.5e-3;
+  return g;
+}
+inline Eigen::Vector3d affine_field(const Eigen::Vector3d& x) {
+  return affine_gradient() * x + Eigen::Vector3d(1.0e-4, -2.0e-4, 3.0e-4);
+}
+
+/// The affine field on the unit cube (h = 0.34) with four interior probes: prescribed on every
+/// face, or (traction_faces) on x_min, y_min, z_min with its traction σ·n = (λ tr ε I + 2μ ε)·n
+/// on the three others.
+inline ElasticityProblem affine_patch_problem(const Material& material, bool traction_faces, const std::string& mesh_name) {
+  ElasticityProblem problem;
+  problem.mesh_path = unit_cube_mesh(0.34, mesh_name);
+  problem.material = material;
+  problem.clamped_boundaries.clear();
+  for (const char* face : {"x_min", "y_min", "z_min"})
+    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
+  const Eigen::Matrix3d strain = 0.5 * (affine_gradient() + affine_gradient().transpose());
+  const Eigen::Matrix3d stress = material.lame_lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() +
+                                 2 * material.shear_modulus_Pa() * strain;
+  for (const auto& [face, normal] : {std::pair{"x_max", Eigen::Vector3d::UnitX()}, std::pair{"y_max", Eigen::Vector3d::UnitY()},
+                                     std::pair{"z_max", Eigen::Vector3d::UnitZ()}}) {
+    if (traction_faces)
+      problem.conditions.push_back({face, BoundaryCondition::Kind::traction,
+                                    [t = Eigen::Vector3d(stress * normal)](const Eigen::Vector3d&) { return t; }});
+    else
+      problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
+  }
+  problem.probes = {{0.5, 0.5, 0.5}, {0.13, 0.71, 0.37}, {0.9, 0.2, 0.6}, {0.31, 0.33, 0.95}};
+  problem.exact_displacement = affine_field;
+  return problem;
 }
 
 /// The unit-cube manufactured-solution problem: `field` (u(x), traction(x, n), body_force(x))

@@ -11,39 +11,20 @@
 namespace touchstone::fem {
 namespace {
 
-const std::vector<std::string> cube_faces{"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
 
 Material tissue() { return Material{10.0e3, 0.45}; }
-
-/// u = G x + c with a full (non-symmetric) G, in metres.
-Eigen::Vector3d affine_field(const Eigen::Vector3d& x) {
-  Eigen::Matrix3d g;
-  g << 1.0e-3, 2.0e-4, -3.0e-4, 5.0e-4, -2.0e-3, 1.0e-4, -4.0e-4, 3.0e-4, 1.5e-3;
-  return g * x + Eigen::Vector3d(1.0e-4, -2.0e-4, 3.0e-4);
-}
-
-std::vector<Eigen::Vector3d> interior_points() {
-  return {{0.5, 0.5, 0.5}, {0.13, 0.71, 0.37}, {0.9, 0.2, 0.6}, {0.31, 0.33, 0.95}};
-}
 
 class PatchTest : public ::testing::TestWithParam<unsigned int> {};
 
 // An affine displacement prescribed on the whole boundary is reproduced to round-off inside.
 TEST_P(PatchTest, AffineDirichletFieldIsReproduced) {
-  ElasticityProblem problem;
-  problem.mesh_path = testing::unit_cube_mesh(0.34, "patch_cube");
-  problem.material = tissue();
-  problem.clamped_boundaries.clear();
-  for (const auto& face : cube_faces)
-    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
-  problem.probes = interior_points();
-  problem.exact_displacement = affine_field;
+  ElasticityProblem problem = testing::affine_patch_problem(tissue(), false, "patch_cube");
   problem.solver.degree = GetParam();
   problem.solver.relative_tolerance = 1e-13;
   const ElasticitySolution solution = solve_elasticity(problem);
   for (std::size_t p = 0; p < problem.probes.size(); ++p) {
     ASSERT_TRUE(solution.probe_found[p]);
-    const Eigen::Vector3d exact = affine_field(problem.probes[p]);
+    const Eigen::Vector3d exact = testing::affine_field(problem.probes[p]);
     EXPECT_LT((solution.probe_displacements_m[p] - exact).norm(), 1e-10 * exact.norm()) << "probe " << p;
   }
   EXPECT_LT(solution.l2_error_m, 1e-11);
@@ -51,24 +32,7 @@ TEST_P(PatchTest, AffineDirichletFieldIsReproduced) {
 
 // The same field with tractions σ(u)·n on three faces: exercises the traction assembly.
 TEST_P(PatchTest, AffineFieldWithTractionFacesIsReproduced) {
-  const Material material = tissue();
-  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
-  Eigen::Matrix3d g;
-  g << 1.0e-3, 2.0e-4, -3.0e-4, 5.0e-4, -2.0e-3, 1.0e-4, -4.0e-4, 3.0e-4, 1.5e-3;
-  const Eigen::Matrix3d strain = 0.5 * (g + g.transpose());
-  const Eigen::Matrix3d stress = lambda * strain.trace() * Eigen::Matrix3d::Identity() + 2 * mu * strain;
-  const auto traction = [stress](Eigen::Vector3d n) { return VectorField([stress, n](const Eigen::Vector3d&) -> Eigen::Vector3d { return stress * n; }); };
-
-  ElasticityProblem problem;
-  problem.mesh_path = testing::unit_cube_mesh(0.34, "patch_cube");
-  problem.material = material;
-  problem.clamped_boundaries.clear();
-  for (const auto& face : {"x_min", "y_min", "z_min"})
-    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
-  problem.conditions.push_back({"x_max", BoundaryCondition::Kind::traction, traction({1, 0, 0})});
-  problem.conditions.push_back({"y_max", BoundaryCondition::Kind::traction, traction({0, 1, 0})});
-  problem.conditions.push_back({"z_max", BoundaryCondition::Kind::traction, traction({0, 0, 1})});
-  problem.exact_displacement = affine_field;
+  ElasticityProblem problem = testing::affine_patch_problem(tissue(), true, "patch_cube");
   problem.solver.degree = GetParam();
   problem.solver.relative_tolerance = 1e-13;
   const ElasticitySolution solution = solve_elasticity(problem);

@@ -14,18 +14,6 @@
 namespace touchstone::fem {
 namespace {
 
-const std::vector<std::string> cube_faces{"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
-
-/// u = G x + c with a full (non-symmetric) G and tr G ≠ 0, in metres.
-Eigen::Matrix3d affine_gradient() {
-  Eigen::Matrix3d g;
-  g << 1.0e-3, 2.0e-4, -3.0e-4, 5.0e-4, -2.0e-3, 1.0e-4, -4.0e-4, 3.0e-4, 1.5e-3;
-  return g;
-}
-Eigen::Vector3d affine_field(const Eigen::Vector3d& x) {
-  return affine_gradient() * x + Eigen::Vector3d(1.0e-4, -2.0e-4, 3.0e-4);
-}
-
 SolverParameters mixed_direct() {
   SolverParameters solver;
   solver.formulation = Formulation::mixed_p0disc;
@@ -38,19 +26,12 @@ class MixedPatchTest : public ::testing::TestWithParam<double> {};
 // An affine field has a constant divergence, which the cell projection keeps: the mixed
 // element reproduces it exactly (1e-10 relative at the probes), however incompressible.
 TEST_P(MixedPatchTest, AffineDirichletFieldIsReproduced) {
-  ElasticityProblem problem;
-  problem.mesh_path = testing::unit_cube_mesh(0.34, "mixed_patch_cube");
-  problem.material = Material{10.0e3, GetParam()};
-  problem.clamped_boundaries.clear();
-  for (const auto& face : cube_faces)
-    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
-  problem.probes = {{0.5, 0.5, 0.5}, {0.13, 0.71, 0.37}, {0.9, 0.2, 0.6}, {0.31, 0.33, 0.95}};
-  problem.exact_displacement = affine_field;
+  ElasticityProblem problem = testing::affine_patch_problem(Material{10.0e3, GetParam()}, false, "mixed_patch_cube");
   problem.solver = mixed_direct();
   const ElasticitySolution solution = solve_elasticity(problem);
   for (std::size_t p = 0; p < problem.probes.size(); ++p) {
     ASSERT_TRUE(solution.probe_found[p]);
-    const Eigen::Vector3d exact = affine_field(problem.probes[p]);
+    const Eigen::Vector3d exact = testing::affine_field(problem.probes[p]);
     EXPECT_LT((solution.probe_displacements_m[p] - exact).norm(), 1e-10 * exact.norm()) << "probe " << p;
   }
   EXPECT_LT(solution.l2_error_m, 1e-11);
@@ -60,26 +41,10 @@ TEST_P(MixedPatchTest, AffineDirichletFieldIsReproduced) {
 // Three faces carry the traction σ·n = (2μ dev ε + κ tr ε I)·n of the same field, whose size
 // grows with κ: exercises the load assembly with the condensed pressure.
 TEST_P(MixedPatchTest, AffineFieldWithTractionFacesIsReproduced) {
-  const Material material{10.0e3, GetParam()};
-  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
-  const Eigen::Matrix3d strain = 0.5 * (affine_gradient() + affine_gradient().transpose());
-  const Eigen::Matrix3d stress = lambda * strain.trace() * Eigen::Matrix3d::Identity() + 2 * mu * strain;
-  const auto traction = [stress](Eigen::Vector3d n) {
-    return VectorField([stress, n](const Eigen::Vector3d&) -> Eigen::Vector3d { return stress * n; });
-  };
-  ElasticityProblem problem;
-  problem.mesh_path = testing::unit_cube_mesh(0.34, "mixed_patch_cube");
-  problem.material = material;
-  problem.clamped_boundaries.clear();
-  for (const auto& face : {"x_min", "y_min", "z_min"})
-    problem.conditions.push_back({face, BoundaryCondition::Kind::displacement, affine_field});
-  problem.conditions.push_back({"x_max", BoundaryCondition::Kind::traction, traction({1, 0, 0})});
-  problem.conditions.push_back({"y_max", BoundaryCondition::Kind::traction, traction({0, 1, 0})});
-  problem.conditions.push_back({"z_max", BoundaryCondition::Kind::traction, traction({0, 0, 1})});
-  problem.exact_displacement = affine_field;
+  ElasticityProblem problem = testing::affine_patch_problem(Material{10.0e3, GetParam()}, true, "mixed_patch_cube");
   problem.solver = mixed_direct();
   const ElasticitySolution solution = solve_elasticity(problem);
-  EXPECT_LT(solution.l2_error_m, 1e-10 * affine_gradient().norm());
+  EXPECT_LT(solution.l2_error_m, 1e-10 * testing::affine_gradient().norm());
 }
 
 INSTANTIATE_TEST_SUITE_P(PoissonRatios, MixedPatchTest, ::testing::Values(0.3, 0.45, 0.4999),

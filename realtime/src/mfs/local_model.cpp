@@ -194,10 +194,6 @@ PatchQuadrature force_extraction_shell(const geometry::TriangleSurface& organ, c
   const ForceSettings& f = settings.force;
   const double inner = f.extraction_inner_tool_radii * contact.radius_m,
                outer = f.extraction_outer_local_radii * settings.sprinkling.local_radius_m;
-  if (!(inner < outer))
-    throw std::invalid_argument("ForceSettings: the extraction shell is empty: inner radius extraction_inner_tool_radii × a = " +
-                                std::to_string(inner) + " m must be < extraction_outer_local_radii × L = " +
-                                std::to_string(outer) + " m");
   return extraction_quadrature(organ, contact, inner, outer, f.extraction_radial_points, f.extraction_polar_points,
                                f.extraction_azimuth_points);
 }
@@ -332,6 +328,15 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   material.validate();
   settings.validate();
   clamped.validate();
+  // The shell depends on the tool radius as well as the settings: checked here, before any work.
+  const ForceSettings& f = settings.force;
+  if (f.traction && !(f.extraction_inner_tool_radii * contact.radius_m <
+                      f.extraction_outer_local_radii * settings.sprinkling.local_radius_m))
+    throw std::invalid_argument(
+        "ForceSettings: the extraction shell is empty: inner radius extraction_inner_tool_radii × a = " +
+        std::to_string(f.extraction_inner_tool_radii * contact.radius_m) +
+        " m must be < extraction_outer_local_radii × L = " +
+        std::to_string(f.extraction_outer_local_radii * settings.sprinkling.local_radius_m) + " m");
   const auto start = std::chrono::steady_clock::now();
   LocalModel model;
   model.material = material;
@@ -384,7 +389,6 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
 
   // Force maps: each is U ↦ F, so K_t = map · unit_response is the condensation (§4.5).
   const MlsSettings& mls = settings.collocation.mls;
-  const ForceSettings& f = settings.force;
   const PatchQuadrature patch = patch_quadrature(organ, contact, f.patch_radial_points, f.patch_angular_points);
   if (!surface_traction_map(model.cloud, material, mls, patch, model.traction_surface_map))
     return fail("a tool-patch quadrature point is outside every support");

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 namespace touchstone::realtime::mfs {
 namespace {
@@ -97,6 +98,21 @@ TEST(ExtractionQuadrature, TheDomainFormOfAConstantStressIsItsBoundaryIntegral) 
   const Eigen::Vector3d extracted = model.traction_map * parameters;
   EXPECT_LT((extracted - expected).norm(), 1e-9 * expected.norm())
       << extracted.transpose() << " vs " << expected.transpose();
+}
+
+TEST(ExtractionQuadrature, AnEmptyShellIsRefusedBeforeTheBuildNamingBothFactors) {
+  LocalModelSettings settings;
+  settings.force.extraction_outer_local_radii = 0.2;  // 0.2 L = 2.5 mm < 1.5 a = 3.75 mm
+  try {
+    build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+    FAIL() << "an empty extraction shell must be refused";
+  } catch (const std::invalid_argument& error) {
+    const std::string what = error.what();
+    EXPECT_NE(what.find("extraction_inner_tool_radii"), std::string::npos) << what;
+    EXPECT_NE(what.find("extraction_outer_local_radii"), std::string::npos) << what;
+  }
+  settings.force.traction = false;  // without the traction integral the shell does not matter
+  EXPECT_TRUE(build_local_model(hemisphere(), pole_contact(), Material{}, settings).ok());
 }
 
 }  // namespace
