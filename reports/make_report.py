@@ -87,6 +87,43 @@ def problem_values_text(v):
     return text
 
 
+def point_tool_section(w, p, group, plots):
+    """B4: the paper's point tool at each N beside the FEM punch of radius s(N), its tip spacing."""
+    punches = {round(1e6 * q["punch_radius_m"]): q["summary"] for q in p.get("punch_references") or []}
+    rows = sorted((c for c in group if finite(get(c, "params", "tip_spacing_m"))),
+                  key=lambda c: (c.get("series"), c["params"]["node_count"]))
+    if not rows:
+        return
+    w("B4: each MFS case (the paper's point tool) against the FEM of a flat punch of radius s, the case's tip-node "
+      "spacing. Both forces depend on the resolution; the FEM column is converged for its s (its own error next to it).")
+    w("")
+    w("| case | N | tip spacing s [mm] | MFS F [mN] | FEM punch a = s: F [mN] | its error | MFS − FEM |")
+    w("|---|---|---|---|---|---|---|")
+    for c in rows:
+        ref = punches.get(round(1e6 * c["params"]["fem_punch_radius_m"]), {})
+        w("| `%s` | %s | %.3f | %s | %s | %s | %s |" % (
+            c["id"], c["params"]["node_count"], 1e3 * c["params"]["tip_spacing_m"], mn(get(c, "qoi", "axial_force_N")),
+            mn(ref.get("axial_force_N")), pct(ref.get("uncertainty_rel"), 3), pct(get(c, "error", "force_signed_rel"))))
+    w("")
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    ok = [c for c in rows if c["status"] == "ok" and finite(get(c, "qoi", "axial_force_N"))]
+    if ok:
+        ax.plot([c["params"]["node_count"] for c in ok], [1e3 * c["qoi"]["axial_force_N"] for c in ok], "o-",
+                label="MFS, paper's point tool")
+        fem = [(c["params"]["node_count"], punches.get(round(1e6 * c["params"]["fem_punch_radius_m"]), {}).get("axial_force_N"))
+               for c in ok]
+        fem = [q for q in fem if finite(q[1])]
+        ax.plot([q[0] for q in fem], [1e3 * q[1] for q in fem], "s--", label="FEM, punch radius = tip spacing s(N)")
+        ax.set_xscale("log")
+        plot = "point_tool_force_vs_n_%s.png" % p["name"]
+        finish(fig, ax, "MFS nodes N", "tool force at max depth [mN]", "B4: both models depend on the resolution",
+               os.path.join(plots, plot))
+        w("![B4 forces](plots/%s)" % plot)
+        w("")
+    else:
+        plt.close(fig)
+
+
 def problems_section(w, results, problems, mfs_all, all_cases, plots):
     """One row per problem variant, its notes, and one error-against-N plot and table each."""
     w("## Problems")
@@ -115,6 +152,8 @@ def problems_section(w, results, problems, mfs_all, all_cases, plots):
             continue
         w("### Problem `%s`" % name)
         w("")
+        if (p.get("problem") or {}).get("point_tool"):
+            point_tool_section(w, p, group, plots)
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
         names = []
         for c in group:
@@ -170,8 +209,8 @@ def failures_section(w, mfs_all, several):
             ("%.3g" % acc["support_scale_max"]) if finite(acc.get("support_scale_max")) else "n/a",
             pct(get(c, "error", "force_rel"))))
     w("")
-    w("rcond and support scale are \"n/a\" for Galerkin cases: the engine's Galerkin assembly does not report its "
-      "moment-matrix statistics (only the collocation assembly does).")
+    w("rcond and support scale: over the collocation points (collocation) or the volume quadrature points (Galerkin); "
+      "\"n/a\" when a case failed before reporting them.")
     w("")
 
 
@@ -422,8 +461,14 @@ def main(out):
     w("Accuracy flags (reference-free, from what the engine reports; thresholds in `accuracy_thresholds` of "
       "results.json): `force_methods_disagree` = the independent force estimators differ by more than %s, "
       "`supports_grew` = adaptive support growth was needed, `ill_conditioned` = a moment matrix within %gx of the "
-      "engine's rcond failure threshold." % (pct(get(results, "accuracy_thresholds", "force_method_spread_limit"), 0),
-                                             get(results, "accuracy_thresholds", "rcond_margin") or float("nan")))
+      "engine's rcond failure threshold, `stiffness_implausible` = the tool stiffness outside %g–%gx the half-space "
+      "punch's, `unconverged_in_n` = the force moved by more than %s from the series' previous N (the series has not "
+      "converged to that accuracy; the change under-estimates the error)." % (
+          pct(get(results, "accuracy_thresholds", "force_method_spread_limit"), 0),
+          get(results, "accuracy_thresholds", "rcond_margin") or float("nan"),
+          get(results, "accuracy_thresholds", "stiffness_ratio_min") or float("nan"),
+          get(results, "accuracy_thresholds", "stiffness_ratio_max") or float("nan"),
+          pct(get(results, "accuracy_thresholds", "force_change_limit"), 0)))
     w("")
     w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | time | status | accuracy flags |")
     w("|---|---|---|---|---|---|---|---|---|---|---|---|---|")

@@ -706,5 +706,8 @@ MpiSession::~MpiSession() { delete impl_; }
 unsigned int MpiSession::rank() { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
 unsigned int MpiSession::size() { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }
 void MpiSession::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
+void MpiSession::broadcast_from_root(std::vector<double>& values) {
+  values = Utilities::MPI::broadcast(MPI_COMM_WORLD, values, 0);
+}
 
 }  // namespace touchstone::fem

@@ -177,6 +177,15 @@ Eigen::Vector3d study_contact_point(const MfsStudy& study) {
   return study.contact_point_m ? *study.contact_point_m : contact_point(study.geometry);
 }
 
+mfs::ToolContact tool_contact(const MfsStudy& study, mfs::PatchCondition condition) {
+  mfs::ToolContact contact;
+  contact.point = study_contact_point(study);
+  contact.direction = study.direction.normalized();
+  contact.radius_m = study.geometry.tool_radius_m;
+  contact.condition = condition;
+  return contact;
+}
+
 // ---------------------------------------------------------------------------------------------
 // One case: build the local model, push the tool δ d, extract every force.
 
@@ -268,11 +277,7 @@ class CaseRunner {
       : study_(study), organ_(organ), options_(options) {}
 
   json run(mfs::PatchCondition condition, int node_count) const {
-    mfs::ToolContact contact;
-    contact.point = study_contact_point(study_);
-    contact.direction = study_.direction.normalized();
-    contact.radius_m = study_.geometry.tool_radius_m;
-    contact.condition = condition;
+    const mfs::ToolContact contact = tool_contact(study_, condition);
     mfs::LocalModelSettings settings = study_.model;
     settings.sprinkling.node_count = node_count;
 
@@ -365,7 +370,10 @@ class CaseRunner {
         {"energy_along_tool", settings.force.energy ? number(f.energy_force_N) : json(nullptr)}};
     qoi["tool_stiffness_matrix_N_per_m"] = matrix_json(model.tool_stiffness_N_per_m);
     qoi["probes"] = probes(model, solution.parameters, contact);
-    if (settings.paper_mode) qoi["paper_tip_residual_Pa"] = vector_json(f.paper_tip_residual_Pa);
+    if (settings.paper_mode) {
+      qoi["paper_tip_residual_Pa"] = vector_json(f.paper_tip_residual_Pa);
+      qoi["paper_tip_spacing_m"] = number(cloud.spacing[static_cast<std::size_t>(model.tip_node)]);
+    }
     if (!f.haptic_N.allFinite() || !f.traction_integral_N.allFinite()) c["status"] = "non_finite_force";
 
     mfs::NodeCloudFields fields;
@@ -764,6 +772,17 @@ std::string resolved_config_toml(const MfsStudy& study) {
   text << "# " << study.name << ", resolved by `touchstone mfs`: every default filled in, quantities in SI (m, Pa, rad).\n"
        << document << "\n";
   return text.str();
+}
+
+double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
+  if (study.surface_path.empty()) throw std::invalid_argument("paper_tip_spacing_m: the study has no surface file");
+  if (!study.model.paper_mode) throw std::invalid_argument("paper_tip_spacing_m: study '" + study.name + "' is not in paper mode");
+  const auto organ = realtime::geometry::TriangleSurface::from_msh(study.surface_path);
+  mfs::LocalModelSettings settings = study.model;
+  settings.sprinkling.node_count = node_count;
+  // The tip spacing does not depend on the patch condition (the sprinkler never reads it).
+  const mfs::NodeCloud cloud = mfs::sprinkle_local_nodes(organ, tool_contact(study, study.contacts.front()), settings);
+  return cloud.spacing.at(0);
 }
 
 nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options) {

@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -149,6 +150,7 @@ MfsSeries read_series(const std::string& path, const std::string& name, const to
 
 struct ReferenceValue {
   std::string id;              ///< prefixed case id in the study's results
+  std::string part;            ///< its FEM run: the folder under <out>/fem/ and the id prefix
   double force_N = nan_value;  ///< axial, at max δ
   double uncertainty_rel = nan_value;
   double disp_uncertainty_rel = nan_value;  ///< probe change, second-finest → finest mesh
@@ -174,6 +176,7 @@ ReferenceValue pick_reference(const json& document, const std::string& prefix, c
   if (chosen == nullptr) chosen = richardson;
   if (chosen == nullptr) throw std::runtime_error("FEM study " + document.value("study", "") + " has no reference case");
   r.id = prefix + chosen->at("id").get<std::string>();
+  r.part = prefix.substr(0, prefix.size() - 1);
   r.force_N = axial(chosen->at("qoi").at("force_N"), d);
   r.probes = chosen->at("qoi").value("probes", json::array());
   // Discretisation error of the extrapolated force: the larger of the family spread and each
@@ -259,10 +262,19 @@ const json& at_path(const json& j, const std::vector<std::string>& path) {
 struct ProblemRun {
   const StudyProblem* sp = nullptr;
   Eigen::Vector3d d;  ///< the tool direction, normalised
-  ReferenceValue reference;
+  ReferenceValue reference;  ///< B4: the first case's (every case has its own, below)
   std::string reference_part;  ///< "reference" or "<name>/reference": the FEM folder and id prefix
   std::vector<std::pair<const MfsSeries*, int>> mfs_cases;
+  /// B4 (point tool): each selected case's tip spacing s [m], parallel to mfs_cases, the FEM
+  /// punch radius it is paired with (s to the micrometre, so that equal spacings share a solve)
+  /// and that punch's converged reference, by the radius in µm.
+  std::vector<double> tip_spacing_m;
+  std::map<long long, ReferenceValue> punch_references;
   const ComparisonProblem& problem() const { return sp->problem; }
+  static long long micrometres(double length_m) { return std::llround(length_m * 1e6); }
+  const ReferenceValue& reference_of(std::size_t case_index) const {
+    return problem().point_tool ? punch_references.at(micrometres(tip_spacing_m.at(case_index))) : reference;
+  }
 };
 
 /// The report's notes on a problem: what its numbers mean beyond the errors.
@@ -283,6 +295,13 @@ json problem_notes(const ComparisonProblem& p) {
                                   "clamped surface (each case's diagnostics.clamped_quadrature_points > 0: held as u = 0; "
                                   "collocation cannot hold it and ends with a failure status); an MFS that leaves the base "
                                   "free inside its ball is softer by construction"}});
+  if (p.point_tool)
+    notes.push_back({{"id", "point_tool"},
+                     {"text", "B4, the paper's point tool: a point displacement has no finite force in the continuum, so "
+                              "each MFS case is compared with the FEM of a flat punch whose radius is that case's tip-node "
+                              "spacing s (params.fem_punch_radius_m; the radius of eq. 9's tributary disc). s shrinks as N "
+                              "grows, and both forces shrink with it: neither model has a resolution-independent limit, and "
+                              "the error column compares two resolution-dependent numbers"}});
   if (p.angle_to_normal_rad() > 45.0 * M_PI / 180.0)
     notes.push_back({{"id", "grazing"},
                      {"text", "the tool direction is " + format_number(std::round(p.angle_to_normal_rad() * 1800 / M_PI) / 10) +
@@ -341,10 +360,13 @@ class StudyRun {
                  {"series", json::array()},
                  {"mfs_cases", r.mfs_cases.size()}};
       for (const auto& s : r.sp->series) entry["series"].push_back(s.name);
-      if (runs_reference(r)) {
+      if (runs_reference(r) && r.problem().point_tool) {
+        entry["punch_references"] = run_point_tool_references(r, cases);
+        entry["reference_summary"] = r.reference.summary;
+      } else if (runs_reference(r)) {
         const json reference_doc = run_fem(r.reference_part, r.sp->reference);
         r.reference = pick_reference(reference_doc, r.reference_part + "/", r.d);
-        add_fem_cases(reference_doc, r.reference_part + "/", r.reference, r, cases);
+        add_fem_cases(reference_doc, r.reference_part + "/", r.reference, r.problem(), r, cases);
         entry["reference_summary"] = r.reference.summary;
       } else {
         entry["reference_summary"] = nullptr;
@@ -358,13 +380,13 @@ class StudyRun {
     if (study_.table2_reference) {
       const json doc = run_fem("table2_reference", *study_.table2_reference);
       full_reference = pick_reference(doc, "table2_reference/", first.d);
-      add_fem_cases(doc, "table2_reference/", *full_reference, first, cases);
+      add_fem_cases(doc, "table2_reference/", *full_reference, first.problem(), first, cases);
       document["table2_reference_summary"] = full_reference->summary;
     }
     const ReferenceValue& fe_row_reference = full_reference ? *full_reference : first.reference;
     if (study_.table2_fem) {
       const json doc = run_fem("table2_fem", *study_.table2_fem);
-      add_fem_cases(doc, "table2_fem/", fe_row_reference, first, cases);
+      add_fem_cases(doc, "table2_fem/", fe_row_reference, first.problem(), first, cases);
     }
 
     // Under mpirun every rank takes part in the FEM solves; the MFS cases, the files and the
@@ -376,17 +398,23 @@ class StudyRun {
       ProblemRun* run;
       const MfsSeries* series;
       int n;
+      const ReferenceValue* reference;
+      std::size_t case_index;  ///< in run->mfs_cases
     };
     std::vector<Job> jobs_list;
     for (auto& r : problems_)
-      for (const auto& [series, n] : r.mfs_cases) {
+      for (std::size_t k = 0; k < r.mfs_cases.size(); ++k) {
+        const auto& [series, n] = r.mfs_cases[k];
         organ_path(series->study);
-        jobs_list.push_back({&r, series, n});
+        jobs_list.push_back({&r, series, n, &r.reference_of(k), k});
       }
     std::vector<json> computed(jobs_list.size());
     const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(jobs_list.size())));
     document["mfs_jobs"] = jobs;
-    const auto compute = [&](std::size_t i) { computed[i] = run_mfs_case(*jobs_list[i].run, *jobs_list[i].series, jobs_list[i].n); };
+    const auto compute = [&](std::size_t i) {
+      const Job& job = jobs_list[i];
+      computed[i] = run_mfs_case(*job.run, *job.series, job.n, *job.reference);
+    };
     if (jobs == 1) {
       for (std::size_t i = 0; i < jobs_list.size(); ++i) compute(i);
     } else {
@@ -405,10 +433,28 @@ class StudyRun {
       for (const auto& error : errors)
         if (error) std::rethrow_exception(error);
     }
+    // Each case's predecessor in its series (the next smaller N), for the convergence-in-N flag.
+    std::vector<json> previous(jobs_list.size());
+    for (std::size_t i = 0; i < jobs_list.size(); ++i)
+      for (std::size_t j = 0; j < jobs_list.size(); ++j) {
+        const Job &a = jobs_list[i], &b = jobs_list[j];
+        if (a.run != b.run || a.series != b.series || !(b.n < a.n)) continue;
+        if (previous[i].is_null() || b.n > previous[i].at("params").at("node_count_requested").get<int>())
+          previous[i] = {{"status", computed[j].at("status")},
+                         {"qoi", {{"force_N", at_path(computed[j], {"qoi", "force_N"})}}},
+                         {"params", {{"node_count_requested", b.n}}}};
+      }
     for (std::size_t i = 0; i < jobs_list.size(); ++i) {
       json c = std::move(computed[i]);
       const ProblemRun& r = *jobs_list[i].run;
-      add_mfs_errors(c, r, &r == &first && full_reference ? &*full_reference : nullptr);
+      const ReferenceValue& reference = *jobs_list[i].reference;
+      add_mfs_errors(c, r, reference, &r == &first && full_reference ? &*full_reference : nullptr,
+                     previous[i].is_null() ? nullptr : &previous[i]);
+      if (r.problem().point_tool) {
+        const std::size_t k = jobs_list[i].case_index;
+        c["params"]["tip_spacing_m"] = r.tip_spacing_m.at(k);
+        c["params"]["fem_punch_radius_m"] = 1e-6 * static_cast<double>(ProblemRun::micrometres(r.tip_spacing_m.at(k)));
+      }
       const json& flags = c.at("accuracy").at("flags");
       std::string flag_text;
       for (const auto& f : flags) flag_text += (flag_text.empty() ? " [" : ", ") + f.get<std::string>();
@@ -416,8 +462,8 @@ class StudyRun {
       progress(c.at("id").get<std::string>() + (c.value("resumed", false) ? " (resumed)" : ""),
                "F = " + format_number(1e3 * value_or_nan(c.at("qoi"), "axial_force_N")) + " mN, error " +
                    format_number(100 * value_or_nan(c.at("error"), "force_rel")) + " % (reference's own error " +
-                   (std::isfinite(r.reference.uncertainty_rel) ? format_number(100 * r.reference.uncertainty_rel) + " %"
-                                                               : std::string("not estimated")) +
+                   (std::isfinite(reference.uncertainty_rel) ? format_number(100 * reference.uncertainty_rel) + " %"
+                                                             : std::string("not estimated")) +
                    ")  " + c.at("status").get<std::string>() + flag_text);
       cases.push_back(std::move(c));
     }
@@ -430,6 +476,7 @@ class StudyRun {
     document["accuracy_thresholds"] = {{"force_method_spread_limit", force_method_spread_limit},
                                        {"support_growth_tolerance", support_growth_tolerance},
                                        {"rcond_margin", rcond_margin},
+                                       {"force_change_limit", force_change_limit},
                                        {"stiffness_ratio_min", stiffness_ratio_min},
                                        {"stiffness_ratio_max", stiffness_ratio_max}};
     document["elapsed_s"] = seconds_since(start_);
@@ -469,7 +516,9 @@ class StudyRun {
     g.benchmark = p.benchmark;
     g.body_radius_m = p.body_radius_m;
     g.contact_polar_angle_rad = p.contact_polar_angle_rad;
-    return {{"benchmark", meshes::to_string(p.benchmark)},
+    return {{"benchmark", p.point_tool ? std::string("B4") : meshes::to_string(p.benchmark)},
+            {"domain", meshes::to_string(p.benchmark)},
+            {"point_tool", p.point_tool},
             {"body_radius_m", p.body_radius_m},
             {"tool_radius_m", p.tool_radius_m},
             {"local_radius_m", p.local_radius_m},
@@ -520,11 +569,63 @@ class StudyRun {
     return doc;
   }
 
-  /// FEM cases under a prefix; level errors are taken against `reference` (the study's
-  /// reference for this domain), the ramp is F δ_i / δ_max.
-  void add_fem_cases(const json& doc, const std::string& prefix, const ReferenceValue& reference, const ProblemRun& r,
-                     json& cases) const {
+  /// B4: a point displacement has no finite force in the continuum, so DESIGN.md §3 pairs the
+  /// paper's tool-tip node with a flat punch of radius equal to the tip's node spacing s (the
+  /// radius of eq. 9's tributary disc π s²). s changes with N and the layout, so each distinct
+  /// s gets its own converged reference (the problem's FEM file, every mesh size scaled by s/a,
+  /// so that each punch is resolved alike), and both models' forces move with the resolution.
+  /// Returns one entry per punch for results.json.
+  json run_point_tool_references(ProblemRun& r, json& cases) {
+    std::vector<double> spacing;
+    if (fem::MpiSession::rank() == 0)
+      for (const auto& [series, n] : r.mfs_cases) {
+        MfsStudy s = series->study;
+        s.surface_path = organ_path(series->study);
+        spacing.push_back(paper_tip_spacing_m(s, n));
+      }
+    // Only rank 0 meshes the organ; every rank takes part in the FEM solves below.
+    fem::MpiSession::broadcast_from_root(spacing);
+    r.tip_spacing_m = spacing;
+    // The progress count had one reference for the problem: it has one per distinct spacing.
+    std::set<long long> distinct;
+    for (const double s : spacing) distinct.insert(ProblemRun::micrometres(s));
+    if (!distinct.empty()) total_ += distinct.size() - 1;
+    json entries = json::array();
     const ComparisonProblem& problem = r.problem();
+    for (const double s : spacing) {
+      const long long key = ProblemRun::micrometres(s);
+      if (r.punch_references.count(key) != 0) continue;
+      const double radius_m = 1e-6 * static_cast<double>(key);
+      const double scale = radius_m / problem.tool_radius_m;
+      ComparisonProblem punch = problem;
+      punch.tool_radius_m = radius_m;
+      ReferenceStudy fem_study = r.sp->reference;
+      fem_study.name += "_a" + std::to_string(key) + "um";
+      fem_study.geometry.tool_radius_m = radius_m;
+      fem_study.geometry.edge_size_m *= scale;
+      for (double& edge : fem_study.edge_sizes_m) edge *= scale;
+      try {
+        fem_study.validate();
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument("problem " + r.sp->name + " (B4): the FEM punch of radius " + format_number(1e3 * radius_m) +
+                                    " mm (a tip spacing): " + e.what());
+      }
+      const std::string part = r.reference_part + "_a" + std::to_string(key) + "um";
+      const json doc = run_fem(part, fem_study);
+      ReferenceValue value = pick_reference(doc, part + "/", r.d);
+      add_fem_cases(doc, part + "/", value, punch, r, cases);
+      entries.push_back({{"punch_radius_m", radius_m}, {"summary", value.summary}});
+      r.punch_references.emplace(key, std::move(value));
+    }
+    if (!spacing.empty()) r.reference = r.reference_of(0);
+    return entries;
+  }
+
+  /// FEM cases under a prefix; level errors are taken against `reference` (the study's
+  /// reference for this domain), the ramp is F δ_i / δ_max. `problem`: the one solved (r's,
+  /// or for B4 r's with the punch radius of a tip spacing).
+  void add_fem_cases(const json& doc, const std::string& prefix, const ReferenceValue& reference,
+                     const ComparisonProblem& problem, const ProblemRun& r, json& cases) const {
     const Eigen::Vector3d& d = r.d;
     for (json c : doc.at("cases")) {
       c["id"] = prefix + c.at("id").get<std::string>();
@@ -588,7 +689,7 @@ class StudyRun {
 
   /// One MFS case: reused from <out>/mfs/<id>/case.json when its hash matches, else run by
   /// the MFS study (one node count).
-  json run_mfs_case(const ProblemRun& r, const MfsSeries& series, int n) {
+  json run_mfs_case(const ProblemRun& r, const MfsSeries& series, int n, const ReferenceValue& reference) {
     const std::string id = mfs_id(r, series, n);
     MfsStudy s = series.study;
     s.name = id;
@@ -617,7 +718,7 @@ class StudyRun {
     o.config_text = series.config_text;
     o.quiet = true;
     // The MFS field on the reference's finest mesh, for ParaView (and a field error).
-    if (!r.reference.field_vtu.empty()) o.reference_field_path = out_ + "/fem/" + r.reference_part + "/" + r.reference.field_vtu;
+    if (!reference.field_vtu.empty()) o.reference_field_path = out_ + "/fem/" + reference.part + "/" + reference.field_vtu;
     const json doc = run_mfs_study(s, o);
     json c = doc.at("cases").at(0);
     c["id"] = id;
@@ -659,8 +760,8 @@ class StudyRun {
     }
   }
 
-  void add_mfs_errors(json& c, const ProblemRun& r, const ReferenceValue* full) const {
-    const ReferenceValue& reference = r.reference;
+  void add_mfs_errors(json& c, const ProblemRun& r, const ReferenceValue& reference, const ReferenceValue* full,
+                      const json* previous) const {
     const Eigen::Vector3d& d = r.d;
     json& qoi = c["qoi"];
     const double f = axial(qoi.value("force_N", json(nullptr)), d);
@@ -709,7 +810,7 @@ class StudyRun {
     c["force_depth_N"] = ramp;
     // What the engine says about its own accuracy, next to the status (a case can end "ok"
     // far from the reference; these flags need no reference).
-    c["accuracy"] = to_json(accuracy_indicator(c, d));
+    c["accuracy"] = to_json(accuracy_indicator(c, d, previous));
   }
 
   const json* find_case(const json& cases, const std::string& id) const {
@@ -816,13 +917,18 @@ class StudyRun {
     };
     for (const ProblemRun& r : problems_) {
     if (!runs_reference(r)) continue;
-    const ReferenceValue& reference = r.reference;
+    // B4: the least accurate of its punch references.
+    const ReferenceValue* worst = &r.reference;
+    for (const auto& [key, punch] : r.punch_references)
+      if (!(punch.uncertainty_rel <= worst->uncertainty_rel)) worst = &punch;
+    const ReferenceValue& reference = *worst;
     // One problem: the ids as always; several: each id and label names its problem.
     const std::string tag = r.sp->id_prefix;
     const std::string where = tag.empty() ? "" : " [" + r.sp->name + "]";
     add("fem_reference_uncertainty" + (tag.empty() ? "" : ":" + r.sp->name),
         "FEM reference force: estimated discretisation error (Richardson, " +
-            reference.summary.at("study").get<std::string>() + ")" + where,
+            reference.summary.at("study").get<std::string>() + ")" + where +
+            (r.punch_references.size() > 1 ? ", the largest of its punch references" : ""),
         0.003, reference.uncertainty_rel, "relative", reference.id);
 
     for (const auto& s : r.sp->series) {
@@ -979,8 +1085,11 @@ class StudyRun {
     probes << "id,probe,x_m,y_m,z_m,ux_m,uy_m,uz_m\n";
     for (const auto& c : document.at("cases")) {
       const json& list = at_path(c, {"qoi", "probes"});
-      const bool reference_case = std::any_of(problems_.begin(), problems_.end(),
-                                              [&](const ProblemRun& r) { return c.at("id") == r.reference.id; });
+      const bool reference_case = std::any_of(problems_.begin(), problems_.end(), [&](const ProblemRun& r) {
+        return c.at("id") == r.reference.id ||
+               std::any_of(r.punch_references.begin(), r.punch_references.end(),
+                           [&](const auto& punch) { return c.at("id") == punch.second.id; });
+      });
       if (!list.is_array() || (c.at("model") != "mfs" && !reference_case)) continue;
       for (const auto& p : list) {
         const json& x = p.at("position_m");
@@ -1090,7 +1199,9 @@ void ComparisonProblem::validate() const {
   positive("problem.local_radius", local_radius_m);
   material.validate();
   if (benchmark != meshes::Benchmark::B2 && benchmark != meshes::Benchmark::B3 && benchmark != meshes::Benchmark::B5)
-    throw std::invalid_argument("problem.benchmark must be B2, B3 or B5");
+    throw std::invalid_argument("problem.benchmark must be B2, B3, B4 or B5");
+  if (point_tool && benchmark != meshes::Benchmark::B2)
+    throw std::invalid_argument("problem.benchmark B4 is the point tool on B2; its domain must be B2");
   if (!(tool_radius_m < 0.5 * local_radius_m))
     throw std::invalid_argument("problem.tool_radius must be < problem.local_radius / 2");
   if (benchmark == meshes::Benchmark::B5 &&
@@ -1119,7 +1230,7 @@ void ComparisonStudy::validate() const {
   if (name.empty()) throw std::invalid_argument("study name is empty");
   if (problems.empty()) throw std::invalid_argument("no problem");
   for (const auto& sp : problems) {
-    const std::string where = problems.size() > 1 ? "problems." + sp.name + ": " : "";
+    const std::string where = sp.id_prefix.empty() ? "" : "problems." + sp.name + ": ";
     try {
       sp.problem.validate();
       sp.reference.validate();
@@ -1131,7 +1242,14 @@ void ComparisonStudy::validate() const {
     if (sp.reference.refinements.size() < 2)
       throw std::invalid_argument(where + "reference: needs >= 2 refinement levels (>= 3 for Richardson extrapolation)");
     if (sp.series.empty()) throw std::invalid_argument(where + "no [mfs.<name>] series");
-    for (const auto& s : sp.series) s.study.validate();
+    for (const auto& s : sp.series) {
+      s.study.validate();
+      // B4's FEM punch is the tip node's spacing: only the paper's tool has one.
+      if (sp.problem.point_tool && !s.study.model.paper_mode)
+        throw std::invalid_argument(where + "benchmark B4 (the point tool): series '" + s.name +
+                                    "' is not in paper mode; set paper_mode = true in [mfs." + s.name +
+                                    "] or leave it out of this problem (problems.<name>.series)");
+    }
   }
   bool found = table2_mfs_series.empty();
   for (const auto& s : first().series) found = found || s.name == table2_mfs_series;
@@ -1145,7 +1263,9 @@ namespace {
 /// The [problem] keys of `table` (the base [problem] or a merged [problems.<name>]).
 ComparisonProblem read_problem(ConfigTable& problem) {
   ComparisonProblem p;
-  p.benchmark = meshes::benchmark_from_string(problem.choice("benchmark", {"B2", "B3", "B5"}, "B3"));
+  const std::string benchmark = problem.choice("benchmark", {"B2", "B3", "B4", "B5"}, "B3");
+  p.point_tool = benchmark == "B4";
+  p.benchmark = meshes::benchmark_from_string(p.point_tool ? "B2" : benchmark);
   p.body_radius_m = problem.quantity("body_radius", Dimension::length, p.body_radius_m);
   p.tool_radius_m = problem.quantity("tool_radius", Dimension::length, p.tool_radius_m);
   p.local_radius_m = problem.quantity("local_radius", Dimension::length, 5 * p.tool_radius_m);
@@ -1376,8 +1496,12 @@ std::vector<double> mfs_force_ramp_N(const Eigen::Matrix3d& tool_stiffness_N_per
   return forces;
 }
 
-AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direction) {
+AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direction, const json* previous) {
   AccuracyIndicator a;
+  // A failed case has no result to judge: its status says what went wrong, and the numbers
+  // it reported before failing (e.g. the forces of a model that then could not hold a clamped
+  // surface) would raise flags about a result nobody receives.
+  if (c.contains("status") && c.at("status") != "ok") return a;
   const Eigen::Vector3d d = direction.normalized();
   const json& methods = at_path(c, {"qoi", "forces_by_method_N"});
   const auto force = [&](const char* method) {
@@ -1413,6 +1537,15 @@ AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direc
     a.flags.push_back("ill_conditioned");
   if (a.stiffness_ratio < stiffness_ratio_min || a.stiffness_ratio > stiffness_ratio_max)
     a.flags.push_back("stiffness_implausible");
+  if (previous != nullptr && previous->value("status", "") == "ok") {
+    const double f = axial(at_path(c, {"qoi", "force_N"}), d), f_previous = axial(at_path(*previous, {"qoi", "force_N"}), d);
+    const double change = std::abs(f - f_previous) / std::abs(f);
+    if (std::isfinite(change)) {
+      a.force_change_from_previous_n = change;
+      a.previous_node_count = at_path(*previous, {"params"}).value("node_count_requested", 0);
+      if (change > force_change_limit) a.flags.push_back("unconverged_in_n");
+    }
+  }
   return a;
 }
 
@@ -1422,6 +1555,8 @@ json to_json(const AccuracyIndicator& a) {
           {"support_scale_max", number(a.support_scale_max)},
           {"rcond_min", number(a.rcond_min)},
           {"stiffness_ratio", number(a.stiffness_ratio)},
+          {"force_change_from_previous_n", number(a.force_change_from_previous_n)},
+          {"previous_node_count", a.previous_node_count},
           {"flags", a.flags}};
 }
 

@@ -307,4 +307,71 @@ node_count = [400]
   fs::remove_all(out);
 }
 
+// B4 end to end on coarse meshes (a/2 scaled by s/a, two levels): the paper's point tool at two
+// resolutions, each case against the FEM punch of radius its own tip spacing s.
+TEST(PointTool, EachCaseAgainstThePunchOfItsTipSpacing) {
+  const fs::path out = fs::temp_directory_path() / "touchstone_study_point_tool";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
+  std::ofstream(out / "b4.toml") << R"(study = "b4"
+[problem]
+benchmark = "B4"
+body_radius = "50 mm"
+tool_radius = "2.5 mm"
+local_radius = "12.5 mm"
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+depths = ["0.125 mm", "0.25 mm"]
+[reference]
+config = ")" << studies << R"(b2_reference.toml"
+edge_sizes = ["1.25 mm"]
+refinements = [0, 1]
+[mfs.paper]
+paper_mode = true
+[mfs.paper.sprinkling]
+node_count = [34, 200]
+)";
+  const ComparisonStudy study = read_comparison_study((out / "b4.toml").string());
+  StudyRunOptions options;
+  options.output_directory = (out / "run").string();
+  options.cache_directory = (out / "cache").string();
+  options.write_report = false;
+  options.quiet = true;
+  const json results = run_comparison_study(study, options);
+
+  const json& coarse = case_with_id(results, "MFS-paper-N34");
+  const json& fine = case_with_id(results, "MFS-paper-N200");
+  ASSERT_EQ(coarse.at("status"), "ok");
+  ASSERT_EQ(fine.at("status"), "ok");
+  EXPECT_EQ(results.at("problem").at("benchmark"), "B4");
+  const json& punches = results.at("problems").at(0).at("punch_references");
+  ASSERT_EQ(punches.size(), 2u);
+  for (const json* c : {&coarse, &fine}) {
+    // The spacing the runner paired the FEM with is the one the model was built with.
+    const double s = c->at("params").at("tip_spacing_m").get<double>();
+    EXPECT_DOUBLE_EQ(s, c->at("qoi").at("paper_tip_spacing_m").get<double>()) << c->at("id");
+    const double radius = c->at("params").at("fem_punch_radius_m").get<double>();
+    EXPECT_NEAR(radius, s, 0.5e-6) << c->at("id");
+    // Its reference is the punch of that radius: the FEM case carries the radius it solved.
+    const json& reference = case_with_id(results, c->at("reference").get<std::string>());
+    EXPECT_DOUBLE_EQ(reference.at("params").at("problem_values").at("tool_radius_m").get<double>(), radius);
+    const double f_ref = reference.at("qoi").at("force_N").at(2).get<double>();
+    EXPECT_NEAR(c->at("error").at("force_signed_rel").get<double>(),
+                (c->at("qoi").at("axial_force_N").get<double>() + f_ref) / -f_ref, 1e-9)
+        << "the error is against the punch of radius s (the FEM force is along -z)";
+  }
+  // More nodes, a smaller tip spacing, a smaller punch: both models' forces depend on the
+  // resolution. The FEM punch is close to a half-space (R ≥ 20 s): F ∝ s to within the
+  // coarse meshes' error and the body's finite size (measured: F/s 7.23 and 7.16 N/m, ratio 1.010).
+  const double s34 = coarse.at("params").at("tip_spacing_m").get<double>();
+  const double s200 = fine.at("params").at("tip_spacing_m").get<double>();
+  EXPECT_LT(s200, 0.8 * s34);
+  const auto fem_force = [&](const json& c) {
+    return -case_with_id(results, c.at("reference").get<std::string>()).at("qoi").at("force_N").at(2).get<double>();
+  };
+  EXPECT_NEAR((fem_force(coarse) / s34) / (fem_force(fine) / s200), 1.0, 0.05);
+  fs::remove_all(out);
+}
+
 }  // namespace

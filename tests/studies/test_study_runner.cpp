@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 namespace {
@@ -71,6 +72,11 @@ node_count = [34, 100]
 [mfs.p]
 paper_mode = true
 )" + extra;
+  }
+
+  std::string read_text(const std::string& name) const {
+    std::ifstream in(directory_ / name);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
 
   /// `text` with the first `from` replaced by `to`.
@@ -150,6 +156,47 @@ TEST_F(StudyFiles, ErrorsNameTheFileAndTheKey) {
   // Table 2 must name a series.
   m = message(replaced(study_text(), "mfs_series = \"p\"", "mfs_series = \"q\""));
   EXPECT_NE(m.find("table2.mfs_series"), std::string::npos) << m;
+}
+
+// B4 is the paper's point tool on B2: a B2 reference file, paper-mode series only.
+TEST_F(StudyFiles, PointToolIsB2WithPaperModeSeriesOnly) {
+  write("ref_b2.toml", replaced(replaced(read_text("ref.toml"), "benchmark = \"B3\"", "benchmark = \"B2\""),
+                                "local_radius = \"10 mm\"\n", ""));
+  const std::string variant = R"(
+[problems.point]
+benchmark = "B4"
+series = ["p"]
+[problems.point.reference]
+config = "ref_b2.toml"
+)";
+  const ComparisonStudy study = read_comparison_study(write("b4.toml", study_text("", variant)));
+  ASSERT_EQ(study.problems.size(), 1u);
+  const StudyProblem& point = study.problems.front();
+  EXPECT_TRUE(point.problem.point_tool);
+  EXPECT_EQ(point.problem.benchmark, meshes::Benchmark::B2);
+  EXPECT_EQ(point.reference.geometry.benchmark, meshes::Benchmark::B2);
+  ASSERT_EQ(point.series.size(), 1u);
+  EXPECT_TRUE(point.series.front().study.model.paper_mode);
+  EXPECT_EQ(point.series.front().study.geometry.benchmark, meshes::Benchmark::B2);
+
+  // The Galerkin series has no tip node to pair a punch with: named, with the way out.
+  std::string m;
+  try {
+    read_comparison_study(write("b4_bad.toml", study_text("", replaced(variant, "series = [\"p\"]", "series = [\"p\", \"g\"]"))));
+  } catch (const ConfigError& e) {
+    m = e.what();
+  }
+  EXPECT_NE(m.find("b4_bad.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("problems.point"), std::string::npos) << m;
+  EXPECT_NE(m.find("series 'g' is not in paper mode"), std::string::npos) << m;
+  // Its reference must be on B2, like the problem's domain.
+  m.clear();
+  try {
+    read_comparison_study(write("b4_b3.toml", study_text("", replaced(variant, "ref_b2.toml", "ref.toml"))));
+  } catch (const ConfigError& e) {
+    m = e.what();
+  }
+  EXPECT_NE(m.find("is a B3 study, but problem.benchmark is B2"), std::string::npos) << m;
 }
 
 /// `text` read as a study; the ConfigError's message, or "no error".
@@ -358,6 +405,28 @@ TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {
   // A failed case has no forces: no spread, no force flag.
   a = accuracy_indicator(json{{"qoi", {{"forces_by_method_N", nullptr}}}}, d);
   EXPECT_TRUE(std::isnan(a.force_method_spread));
+  EXPECT_TRUE(a.flags.empty());
+  // A failed case that reported broken diagnostics before failing gets no flags either: there
+  // is no result to judge.
+  json failed = bad;
+  failed["qoi"]["force_N"] = {0.0, 0.0, -0.070};
+  failed["status"] = "the local ball reaches a clamped surface";
+  EXPECT_TRUE(accuracy_indicator(failed, d).flags.empty());
+
+  // Convergence in N: 20.0 mN after 20.9 mN at the previous N moved 4.5 % (under the 5 % limit);
+  // after 21.2 mN, 6 % (flagged); after a failed case, nothing to compare.
+  json previous{{"status", "ok"}, {"qoi", {{"force_N", {0.0, 0.0, -0.0209}}}}, {"params", {{"node_count_requested", 50}}}};
+  a = accuracy_indicator(clean, d, &previous);
+  EXPECT_NEAR(a.force_change_from_previous_n, 0.045, 1e-12);
+  EXPECT_EQ(a.previous_node_count, 50);
+  EXPECT_TRUE(a.flags.empty());
+  previous["qoi"]["force_N"] = {0.0, 0.0, -0.0212};
+  a = accuracy_indicator(clean, d, &previous);
+  EXPECT_NEAR(a.force_change_from_previous_n, 0.06, 1e-12);
+  EXPECT_EQ(a.flags, (std::vector<std::string>{"unconverged_in_n"}));
+  previous["status"] = "singular";
+  a = accuracy_indicator(clean, d, &previous);
+  EXPECT_TRUE(std::isnan(a.force_change_from_previous_n));
   EXPECT_TRUE(a.flags.empty());
 }
 

@@ -323,6 +323,15 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
 
 }  // namespace
 
+NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact,
+                               const LocalModelSettings& settings) {
+  SprinklingSettings sprinkling = settings.sprinkling;
+  if (settings.paper_mode) sprinkling.tip_node_only = true;
+  // Extra collocation points mean nothing to the weak form: do not sprinkle them.
+  if (settings.formulation == Formulation::galerkin) sprinkling.oversampling = 1;
+  return sprinkle_nodes(organ, contact, sprinkling);
+}
+
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const Material& material,
                              const LocalModelSettings& settings, const ClampedSurface& clamped) {
   material.validate();
@@ -342,11 +351,7 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   model.material = material;
   model.settings = settings;
   model.contact = contact;
-  SprinklingSettings sprinkling = settings.sprinkling;
-  if (settings.paper_mode) sprinkling.tip_node_only = true;
-  // Extra collocation points mean nothing to the weak form: do not sprinkle them.
-  if (settings.formulation == Formulation::galerkin) sprinkling.oversampling = 1;
-  model.cloud = sprinkle_nodes(organ, contact, sprinkling);
+  model.cloud = sprinkle_local_nodes(organ, contact, settings);
   model.times.sprinkle_s = seconds_since(start);
 
   if (settings.formulation == Formulation::galerkin) return build_galerkin(organ, std::move(model), clamped, start);

@@ -149,6 +149,9 @@ class MpiSession {
   static unsigned int rank();
   static unsigned int size();
   static void barrier();
+  /// Every rank receives rank 0's `values` (sizes may differ on entry). For inputs only rank 0
+  /// can compute, e.g. from files it alone writes.
+  static void broadcast_from_root(std::vector<double>& values);
 
  private:
   struct Impl;

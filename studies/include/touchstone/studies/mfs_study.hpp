@@ -83,6 +83,12 @@ struct MfsRunOptions {
 /// is recorded with status != "ok" and null numbers; the others still run. Returns the document.
 nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options);
 
+/// The paper's model (paper_mode): the spacing s [m] of its tool-tip node at `node_count`, the
+/// radius of eq. 9's tributary disc π s² — and of the FEM punch DESIGN.md's B4 pairs with it.
+/// Sprinkles only (milliseconds), on study.surface_path (must be set). Throws
+/// std::invalid_argument when the study is not in paper mode or has no surface file.
+double paper_tip_spacing_m(const MfsStudy& study, int node_count);
+
 /// "MFS-frictionless-N100": the case id of one contact condition and requested node count.
 std::string mfs_case_id(realtime::mfs::PatchCondition contact, int node_count);
 

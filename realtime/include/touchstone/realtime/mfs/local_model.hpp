@@ -142,6 +142,12 @@ struct LocalModel {
   bool ok() const { return status == "ok"; }
 };
 
+/// The node cloud build_local_model places for `settings` (paper mode: the tip node, first,
+/// and no patch rings; Galerkin: no extra collocation points), without building anything else:
+/// milliseconds. The paper's tip spacing cloud.spacing[0] is eq. 9's tributary radius s.
+NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact,
+                               const LocalModelSettings& settings);
+
 /// Builds the local model of `contact` on `organ`. `clamped`: parts of the organ surface held
 /// at u = 0 (Galerkin only; a collocation model whose ball reaches them fails with a status).
 /// Throws std::invalid_argument for invalid settings, material, contact or clamped surface
