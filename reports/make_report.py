@@ -251,9 +251,13 @@ def main(out):
     depths_mm = [1e3 * d for d in results["depths_m"]]
     if ref_case:
         ax.plot(depths_mm, [1e3 * f for f in ref_case["force_depth_N"]], "k-", lw=2.5, label="FEM reference (Richardson)")
+    # The half-space closed form the reference study adds on B1 and B2: Sneddon (frictionless) or
+    # Mossakovskii (bonded), named from its formula.
     analytic = [c for c in cases if c["model"] == "analytic" and c.get("part") == "reference"]
     for c in analytic:
-        ax.plot(depths_mm, [1e3 * f for f in c["force_depth_N"]], "k:", label="half-space (Sneddon)")
+        formula = str(get(c, "params", "formula") or "")
+        name = "Mossakovskii" if formula.startswith("Mossakovskii") else "Sneddon"
+        ax.plot(depths_mm, [1e3 * f for f in c["force_depth_N"]], "k:", label="half-space (%s)" % name)
     for s in series:
         group = [c for c in by_series[s["name"]] if c["status"] == "ok"]
         if not group:
@@ -350,19 +354,26 @@ def main(out):
       (prov.get("git"), prov.get("build_type"), prov.get("compiler"), prov.get("machine"),
        str(prov.get("config_sha256"))[:12], prov.get("time_utc")))
     w("")
-    where = ("at the pole" if problem["benchmark"] != "B5" else
-             "at polar angle θ = %.1f°" % math.degrees(problem.get("contact_polar_angle_rad") or 0.0))
+    b1 = problem["benchmark"] == "B1"
+    if b1:
+        where = "at the centre of the flat top face z = 0 (base z = −W clamped)"
+    elif problem["benchmark"] == "B5":
+        where = "at polar angle θ = %.1f°" % math.degrees(problem.get("contact_polar_angle_rad") or 0.0)
+    else:
+        where = "at the pole"
     if several:
         w("This study has **%d problems** (variants of its [problem]); the plots and the detailed tables are those of "
           "the first, `%s`; every problem's errors, notes and flags follow in \"Problems\"." % (len(problems), first))
         w("")
-    w("**Problem**%s (both models): %s, R = %g mm, tool radius a = %g mm, L = %g mm, E = %g kPa, ν = %g, %s rigid flat "
+    w("**Problem**%s (both models): %s, %s = %g mm, tool radius a = %g mm, L = %g mm, E = %g kPa, ν = %g, %s rigid flat "
       "punch %s, direction %s, depth ramp δ = %s mm. Both models are linear: each case is solved once at "
       "the largest δ; the force at every δ of the ramp is K_t δ d (MFS, the engine's haptic force) or F_ref δ/δ_max "
-      "(FEM). Probe points (the axis below the tool and the surface meridian, inside 0.9 L) are identical for both." %
-      (" `%s`" % first if several else "", problem["benchmark"], 1e3 * problem["body_radius_m"], 1e3 * a,
+      "(FEM). Probe points (the axis below the tool and the %s, inside 0.9 L) are identical for both." %
+      (" `%s`" % first if several else "", problem["benchmark"] + (" (cylinder, radius = height = W)" if b1 else ""),
+       "W" if b1 else "R", 1e3 * problem["body_radius_m"], 1e3 * a,
        1e3 * problem["local_radius_m"], problem["youngs_modulus_Pa"] / 1e3, problem["poisson_ratio"],
-       problem["contact"], where, problem["direction"], ", ".join("%g" % x for x in depths_mm)))
+       problem["contact"], where, problem["direction"], ", ".join("%g" % x for x in depths_mm),
+       "radial line on the top face" if b1 else "surface meridian"))
     w("")
     for note in problems[0].get("notes", []) if not several else []:
         w("**Note** (%s): %s." % (note["id"], note["text"]))
@@ -374,6 +385,12 @@ def main(out):
        "asymptotic convergence" if ref.get("asymptotic") else "**not in the asymptotic range: treat with care**",
        ref.get("probes_from"), pct(ref.get("disp_uncertainty_rel"))))
     w("")
+    if finite(ref.get("half_space_force_N")):
+        w("**Half-space closed form** (%s): %s mN at δ = %g mm; the reference is %.4f x it (a finite body with a "
+          "clamped base is stiffer than the half-space; the MFS columns \"vs half-space\" below are signed errors "
+          "against this closed form)." % (ref.get("half_space_formula"), mn(ref["half_space_force_N"]), depths_mm[-1],
+                                          ref.get("ratio_to_half_space") or float("nan")))
+        w("")
     for fam in ref.get("families", []):
         levels = ", ".join("%d dofs: %s mN" % (l["dofs"], mn(l["axial_force_N"])) for l in fam["levels"])
         w("- %s: %s → extrapolated %s mN (observed order %s, uncertainty %s)" %
@@ -446,9 +463,14 @@ def main(out):
           "Its force error is against `%s` = %s mN." % (
               fe["nodes"], fe["mesh_vertices"], fe["dofs"], processes, "" if processes == 1 else "es",
               seconds(fe["mesh_s"]), seconds(fe["end_to_end_s"]), fe["reference"], mn(fe["reference_force_N"])))
+    if problem["benchmark"] == "B3":
+        against = "the FEM on the identical local domain (B3)"
+    else:
+        against = ("the FEM on the whole body (%s): the MFS solves organ ∩ ball(contact, L) with u = 0 on the cut, so "
+                   "these errors include its truncation" % problem["benchmark"])
     w("Ours MFS: model = sprinkling + shape functions + assembly; solution = factorisation + condensation to the "
-      "tool stiffness K_t + the solve for δ (one build serves every δ). MFS errors are against the FEM on the "
-      "identical local domain (%s). Paper times: %s." % (problem["benchmark"], paper.get("machine")))
+      "tool stiffness K_t + the solve for δ (one build serves every δ). MFS errors are against %s. Paper times: %s." %
+      (against, paper.get("machine")))
     w("")
 
     # Force error per series and N.
@@ -470,17 +492,20 @@ def main(out):
           get(results, "accuracy_thresholds", "stiffness_ratio_max") or float("nan"),
           pct(get(results, "accuracy_thresholds", "force_change_limit"), 0)))
     w("")
-    w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | time | status | accuracy flags |")
-    w("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    half_space = any(get(c, "error_half_space") for c in mfs)
+    w("| case | formulation | N (actual) | F [mN] | force error | signed | ref. error | displacement error (rel. L2) | max abs. difference [µm] | vs full B2 | %stime | status | accuracy flags |"
+      % ("vs half-space (signed) | " if half_space else ""))
+    w("|---|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if half_space else ""))
     for s in series:
         for c in by_series[s["name"]]:
             e = c["error"]
-            w("| `%s` | %s%s | %s | %s | %s | %s | ±%s | %s | %s | %s | %s | %s | %s |" % (
+            hs = (pct(get(c, "error_half_space", "force_signed_rel")) + " | ") if half_space else ""
+            w("| `%s` | %s%s | %s | %s | %s | %s | ±%s | %s | %s | %s | %s%s | %s | %s |" % (
                 c["id"], c["params"].get("formulation"), " (paper mode)" if c["params"].get("paper_mode") else "",
                 c["params"].get("node_count"), mn(get(c, "qoi", "axial_force_N")), pct(e.get("force_rel")),
                 pct(e.get("force_signed_rel")), pct(e.get("reference_uncertainty_rel"), 3), pct(e.get("disp_rel_l2")),
                 ("%.2f" % (1e6 * e["disp_max_m"])) if finite(e.get("disp_max_m")) else "n/a",
-                pct(get(c, "error_full_domain", "force_rel")), seconds(get(c, "time_s", "total")), c["status"],
+                pct(get(c, "error_full_domain", "force_rel")), hs, seconds(get(c, "time_s", "total")), c["status"],
                 flags_text(c)))
     w("")
     w("Engine default formulation: `%s`. Forces by extraction method (signed error against the reference):" % default_formulation)

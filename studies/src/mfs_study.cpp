@@ -127,7 +127,8 @@ struct Organ {
 };
 
 /// B3 is the hemisphere seen through the local ball: the MFS cuts the ball itself, so its
-/// organ is the whole hemisphere (B2), not the truncated FEM domain.
+/// organ is the whole hemisphere (B2), not the truncated FEM domain. B1 (the cylinder), B2 and
+/// B5 are their own organ.
 meshes::MeshParameters surface_geometry(const MfsStudy& study) {
   meshes::MeshParameters g = study.geometry;
   if (g.benchmark == meshes::Benchmark::B3) g.benchmark = meshes::Benchmark::B2;
@@ -621,7 +622,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
 
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
-  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B2", "B3", "B5"}, "B2"));
+  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2", "B3", "B5"}, "B2"));
   g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
   g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
   g.contact_polar_angle_rad = geometry.quantity("contact_polar_angle", Dimension::angle, 0.0);

@@ -3,6 +3,7 @@
 // that name the file and the key or field.
 #include "touchstone/studies/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/probes.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>
@@ -255,6 +256,18 @@ TEST(MfsStudyConfig, SurfacePathIsRelativeToTheConfigFolder) {
   const std::string message = config_error("[organ]\nsurface = \"organs/kidney.msh\"\n");
   EXPECT_NE(message.find("organ.surface"), std::string::npos) << message;
   EXPECT_NE(message.find("kidney.msh"), std::string::npos) << message;
+}
+
+TEST(MfsStudyConfig, B1IsTheGeneratedCylinderWithItsClampedBase) {
+  ConfigTable config = ConfigTable::from_string(edited("benchmark = \"B2\"", "benchmark = \"B1\""), "b1.toml");
+  const MfsStudy study = read_mfs_study(config);
+  EXPECT_EQ(study.geometry.benchmark, meshes::Benchmark::B1);
+  EXPECT_TRUE(study.surface_path.empty());
+  EXPECT_EQ(study.clamped_group, "base");
+  EXPECT_NEAR(contact_point(study.geometry).norm(), 0.0, 1e-15);  // the centre of the top face z = 0
+  const std::string message = config_error(edited("benchmark = \"B2\"", "benchmark = \"B4\""));
+  EXPECT_NE(message.find("geometry.benchmark"), std::string::npos) << message;
+  EXPECT_NE(message.find("'B1', 'B2', 'B3', 'B5'"), std::string::npos) << message;
 }
 
 TEST(MfsStudyConfig, PaperModeTakesThePapersDefaults) {

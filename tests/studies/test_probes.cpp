@@ -35,6 +35,29 @@ TEST(Probes, OffPoleContactRotatesTheProbes) {
     if (p.name.rfind("meridian", 0) == 0) EXPECT_NEAR(p.position_m.norm(), g.body_radius_m, 1e-15) << p.name;
 }
 
+TEST(Probes, CylinderProbesLieOnTheFlatTopAndTheAxisBelowTheOrigin) {
+  meshes::MeshParameters g;
+  g.benchmark = meshes::Benchmark::B1;
+  g.body_radius_m = 0.05;
+  EXPECT_NEAR(contact_point(g).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((outward_normal(g) - Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-15);
+  const auto probes = indentation_probes(g, {0.0, 0.0, -1.0});
+  ASSERT_EQ(probes.size(), 14u);
+  for (const auto& p : probes) {
+    if (p.name.rfind("axis", 0) == 0) {
+      EXPECT_NEAR(p.position_m.head<2>().norm(), 0.0, 1e-15) << p.name;
+      EXPECT_LT(p.position_m.z(), 0.0) << p.name;
+    } else {
+      // The "meridian" of a flat top: the radial line along +x on z = 0.
+      EXPECT_EQ(p.position_m.z(), 0.0) << p.name;
+      EXPECT_EQ(p.position_m.y(), 0.0) << p.name;
+      EXPECT_GE(p.position_m.x(), 0.0) << p.name;
+    }
+  }
+  EXPECT_EQ(probes.back().name, "meridian_8a");
+  EXPECT_NEAR(probes.back().position_m.x(), 8 * g.tool_radius_m, 1e-15);
+}
+
 TEST(Probes, LocalDomainDropsProbesOutsideTheBall) {
   meshes::MeshParameters g;
   g.benchmark = meshes::Benchmark::B3;

@@ -35,7 +35,7 @@ TEST(ShippedStudies, TheIssueFourStudiesAreShipped) {
   std::set<std::string> names;
   for (const auto& path : comparison_studies()) names.insert(path.stem().string());
   for (const char* expected : {"hemisphere", "ci_accuracy", "sprinkling", "paper_mode", "truncation", "formulation",
-                               "stability", "poisson"})
+                               "stability", "poisson", "half_space"})
     EXPECT_TRUE(names.count(expected)) << "studies/" << expected << ".toml is missing or has no [problem] table";
 }
 
@@ -74,6 +74,25 @@ TEST(ShippedStudies, EveryComparisonStudyReadsAndHasMfsCases) {
 }  // namespace
 
 namespace {
+
+/// The B1 study: the cylinder, its own B1 reference, the engine's default series and the paper's.
+TEST(ShippedStudies, HalfSpaceIsBenchmarkB1AgainstItsOwnReference) {
+  const ComparisonStudy study = read_comparison_study(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/half_space.toml");
+  ASSERT_EQ(study.problems.size(), 1u);
+  const StudyProblem& p = study.first();
+  EXPECT_EQ(p.problem.benchmark, touchstone::meshes::Benchmark::B1);
+  EXPECT_EQ(p.reference.geometry.benchmark, touchstone::meshes::Benchmark::B1);
+  EXPECT_EQ(p.reference.name, "b1_reference");
+  EXPECT_GE(p.reference.refinements.size(), 3u);  // Richardson, with an error estimate
+  bool engine_default = false, paper = false;
+  for (const auto& s : p.series) {
+    engine_default = engine_default || s.engine_default;
+    paper = paper || s.study.model.paper_mode;
+    EXPECT_EQ(s.study.geometry.benchmark, touchstone::meshes::Benchmark::B1) << s.name;
+  }
+  EXPECT_TRUE(engine_default);
+  EXPECT_TRUE(paper);
+}
 
 /// The reworked stress test and Poisson study: one file each, several problems.
 TEST(ShippedStudies, StabilityAndPoissonCoverTheirRangesInOneFile) {

@@ -4,6 +4,7 @@
 #include "touchstone/studies/study_runner.hpp"
 
 #include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/probes.hpp"
 
 #include <gtest/gtest.h>
 
@@ -349,6 +350,98 @@ radius_factor = 2.0
   const ComparisonStudy none = read_comparison_study(write("n.toml", replaced(study_text(), "[mfs.g]\nformulation = \"galerkin\"\n",
                                                                              "[mfs.g]\nformulation = \"collocation\"\n")));
   for (const auto& series : none.first().series) EXPECT_FALSE(series.engine_default) << series.name;
+}
+
+/// A B1 study: the cylinder W = 20a, its own `touchstone fem` file (written with another W and a
+/// W sweep, which the problem replaces), one Galerkin series.
+std::string b1_study_text(const std::string& extra_problem = "", const std::string& extra = "") {
+  return R"(study = "b1"
+[problem]
+benchmark = "B1"
+body_radius = "50 mm"
+tool_radius = "2.5 mm"
+local_radius = "12.5 mm"
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+depths = ["0.125 mm", "0.25 mm"]
+)" + extra_problem + R"(
+[reference]
+config = "ref_b1.toml"
+[mfs.g]
+formulation = "galerkin"
+[mfs.g.sprinkling]
+node_count = [100]
+)" + extra;
+}
+
+TEST_F(StudyFiles, BenchmarkB1IsTheCylinderWithTheToolAtTheCentreOfItsTop) {
+  write("ref_b1.toml", R"(study = "ref_b1"
+[geometry]
+benchmark = "B1"
+body_radius = "125 mm"
+tool_radius = "2.5 mm"
+[mesh]
+edge_size = "1.25 mm"
+refinements = [0, 1]
+[sweep]
+body_radius = ["125 mm", "250 mm"]
+contact = ["frictionless", "bonded"]
+)");
+  const ComparisonStudy study = read_comparison_study(write("b1.toml", b1_study_text("", R"(
+[problems.small]
+body_radius = "20 mm"
+local_radius = "25 mm"
+)")));
+  // With variants, [problem] is their template, not a problem of its own: one problem, "small".
+  ASSERT_EQ(study.problems.size(), 1u);
+  const StudyProblem& small = study.first();
+  EXPECT_EQ(small.problem.benchmark, meshes::Benchmark::B1);
+  EXPECT_NEAR((small.problem.outward_normal() - Eigen::Vector3d::UnitZ()).norm(), 0, 1e-15);
+  EXPECT_NEAR(small.problem.angle_to_normal_rad(), 0, 1e-12);
+  // The base z = −W is W below the contact point: inside ball(0, L) when W < L.
+  EXPECT_TRUE(small.problem.ball_reaches_base());
+
+  const ComparisonStudy base = read_comparison_study(write("b1.toml", b1_study_text()));
+  const StudyProblem& s = base.first();
+  EXPECT_FALSE(s.problem.ball_reaches_base());  // W = 50 mm > L = 12.5 mm
+  // The reference is the problem's cylinder: W imposed, the file's W sweep and contacts gone.
+  EXPECT_EQ(s.reference.geometry.benchmark, meshes::Benchmark::B1);
+  EXPECT_DOUBLE_EQ(s.reference.geometry.body_radius_m, 0.05);
+  EXPECT_TRUE(s.reference.body_radii_m.empty());
+  EXPECT_TRUE(s.reference.contacts.empty());
+  EXPECT_DOUBLE_EQ(s.reference.punch.depth_m, 0.25e-3);
+  // The MFS organ is the generated cylinder with its clamped base, the tool at the origin.
+  ASSERT_EQ(s.series.size(), 1u);
+  const MfsStudy& m = s.series[0].study;
+  EXPECT_EQ(m.geometry.benchmark, meshes::Benchmark::B1);
+  EXPECT_DOUBLE_EQ(m.geometry.body_radius_m, 0.05);
+  EXPECT_TRUE(m.surface_path.empty());
+  EXPECT_EQ(m.clamped_group, "base");
+  EXPECT_FALSE(m.contact_point_m.has_value());
+  EXPECT_NEAR(contact_point(m.geometry).norm(), 0, 1e-15);
+  EXPECT_DOUBLE_EQ(m.model.sprinkling.local_radius_m, 0.0125);
+  EXPECT_NEAR((m.direction.normalized() + Eigen::Vector3d::UnitZ()).norm(), 0, 1e-15);
+}
+
+TEST_F(StudyFiles, ABadB1ProblemNamesTheFileTheKeyAndTheValue) {
+  write("ref_b1.toml", "study = \"ref_b1\"\n[geometry]\nbenchmark = \"B1\"\n[mesh]\nedge_size = \"1.25 mm\"\nrefinements = [0, 1]\n");
+  // B1 pushes at the centre of its top face: a polar angle is B5's.
+  std::string m = read_error(write("bad.toml", b1_study_text("contact_polar_angle = \"10 deg\"\n")));
+  EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("problem.contact_polar_angle = 0.174533"), std::string::npos) << m;
+  EXPECT_NE(m.find("B5 only"), std::string::npos) << m;
+  // The reference must be a B1 study.
+  m = read_error(write("bad.toml", replaced(b1_study_text(), "config = \"ref_b1.toml\"", "config = \"ref.toml\"")));
+  EXPECT_NE(m.find("reference.config"), std::string::npos) << m;
+  EXPECT_NE(m.find("is a B3 study, but problem.benchmark is B1"), std::string::npos) << m;
+  // An unknown benchmark is named with the list.
+  m = read_error(write("bad.toml", replaced(b1_study_text(), "benchmark = \"B1\"", "benchmark = \"B6\"")));
+  EXPECT_NE(m.find("problem.benchmark"), std::string::npos) << m;
+  EXPECT_NE(m.find("'B6' is not one of 'B1', 'B2', 'B3', 'B4', 'B5'"), std::string::npos) << m;
+  // W must leave room for the tool (a < W/2).
+  m = read_error(write("bad.toml", replaced(b1_study_text(), "body_radius = \"50 mm\"", "body_radius = \"4 mm\"")));
+  EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("problem.tool_radius = 0.0025 m must be < problem.body_radius / 2 = 0.002 m"), std::string::npos) << m;
 }
 
 TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {

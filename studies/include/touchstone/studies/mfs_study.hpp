@@ -21,7 +21,8 @@ namespace touchstone::studies {
 struct MfsStudy {
   std::string name = "mfs";
   /// The organ and the tool: benchmark (B2/B3: hemisphere with the tool at the pole, B5: at
-  /// contact_polar_angle), body radius R, tool radius a. When no surface file is given, the
+  /// contact_polar_angle; B1: cylinder of radius = height = W, the tool at the centre of its top
+  /// face z = 0, the origin), body radius R or W, tool radius a. When no surface file is given, the
   /// organ surface is generated from these with the mesh sizes edge_size_m, size_growth and
   /// max_size_m (only the boundary triangles are used).
   meshes::MeshParameters geometry;
@@ -32,7 +33,8 @@ struct MfsStudy {
   /// "base" for a generated benchmark (its clamped base; it matters when the local ball reaches
   /// it, e.g. B5 near the base), none ("") by default for a surface file.
   std::string clamped_group;
-  /// Contact point on the organ surface [m]; unset: the benchmark's (R n at the polar angle).
+  /// Contact point on the organ surface [m]; unset: the benchmark's (R n at the polar angle;
+  /// the origin on B1).
   std::optional<Eigen::Vector3d> contact_point_m;
 
   realtime::mfs::Material material;

@@ -28,15 +28,16 @@ namespace touchstone::studies {
 
 /// The problem both models solve; imposed on every FEM and MFS sub-study of the study.
 struct ComparisonProblem {
-  meshes::Benchmark benchmark = meshes::Benchmark::B3;  ///< B2, B3 or B5 (B4: B2 and point_tool)
+  meshes::Benchmark benchmark = meshes::Benchmark::B3;  ///< B1, B2, B3 or B5 (B4: B2 and point_tool)
   /// B4 (`benchmark = "B4"` in a study): the paper's point tool on B2. Every MFS series must be
   /// in paper mode (one tool-tip node); the FEM reference of each MFS case is a flat punch of
   /// radius equal to that case's tip-node spacing s (DESIGN.md §3), so there is one converged
   /// reference per distinct s, its mesh sizes those of [reference] scaled by s/a.
   bool point_tool = false;
-  double body_radius_m = 0.05;    ///< R
+  double body_radius_m = 0.05;    ///< R (B2, B3, B5) or W (B1: cylinder radius = height)
   double tool_radius_m = 0.0025;  ///< a
   /// L [m]: B3's domain and the MFS local ball (organ ∩ ball(contact, L)) on every benchmark.
+  /// On B1 the contact point is the centre of the flat top face, the origin.
   double local_radius_m = 0.0125;
   /// B5: polar angle θ [rad] of the tool patch centre on the hemisphere (0: the pole). The
   /// contact point is R (sin θ, 0, cos θ); the base z = 0 is clamped in the FEM only.
@@ -49,14 +50,15 @@ struct ComparisonProblem {
   /// F_ref δ_i / δ_max (FEM), so depths beyond a/2 test numerical stability, not physics.
   std::vector<double> depths_m{0.05e-3, 0.10e-3, 0.15e-3, 0.20e-3, 0.25e-3};
   double max_depth_m() const { return depths_m.back(); }
-  /// Outward surface normal at the contact point (e_z on B2/B3).
+  /// Outward surface normal at the contact point (e_z on B1, B2, B3).
   Eigen::Vector3d outward_normal() const;
   /// Angle between d and the inward normal −n [rad]: 0 pushes straight in, near π/2 grazes.
   double angle_to_normal_rad() const;
   /// δ_max > a/2: beyond where the linear small-strain model means anything physically.
   bool beyond_small_strain() const { return max_depth_m() > 0.5 * tool_radius_m; }
-  /// B5 near the base: the MFS ball(contact, L) reaches the clamped base plane (R cos θ < L),
-  /// which the MFS engine treats as a free surface.
+  /// The MFS ball(contact, L) reaches the clamped base: B5 near the base (R cos θ < L), or B1
+  /// with W < L (the base is z = −W). The MFS holds it only where its engine supports a
+  /// clamped surface (Galerkin); see problem notes in the report.
   bool ball_reaches_base() const;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -192,7 +194,8 @@ constexpr double rcond_margin = 100.0;
 
 /// Flag "stiffness_implausible" outside [min, max] × k_hs. A rigid flat punch on a body whose
 /// clamped boundary is at least 2a away (L > 2a) is within a small factor of the half-space:
-/// B2 (R = 20a) 1.16×, B3 at L = 5a 1.6×, bonded ≈ frictionless as ν → 0.5, a free base near
+/// B2 (R = 20a) 1.16×, B1 (W = 20a) 1.05× (FEM), B3 at L = 5a 1.6× (the Galerkin MFS's local ball
+/// on B1's flat top: 1.9–2.2× at N = 100–400), bonded ≈ frictionless as ν → 0.5, a free base near
 /// the patch softer. Tiny Galerkin supports that grew gave 12× with the force estimators agreeing
 /// (their spread 9 %): this bound is what catches them.
 constexpr double stiffness_ratio_min = 0.25;
