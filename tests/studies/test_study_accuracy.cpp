@@ -7,6 +7,8 @@
 
 #include "touchstone/studies/provenance.hpp"
 
+#include "study_test_support.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,15 +16,13 @@
 #include <fstream>
 #include <string>
 
-#ifndef TOUCHSTONE_SOURCE_DIR
-#error "TOUCHSTONE_SOURCE_DIR must point at the source tree"
-#endif
 
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace touchstone::studies;
+using namespace touchstone::studies::testing;
 
 TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
   const std::string config = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/ci_accuracy.toml";
@@ -30,8 +30,7 @@ TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
   ASSERT_FALSE(study.baseline_path.empty());
   ASSERT_TRUE(fs::exists(study.baseline_path)) << study.baseline_path;
 
-  const fs::path out = fs::temp_directory_path() / "touchstone_ci_accuracy";
-  fs::remove_all(out);
+  const fs::path out = scratch_directory("ci_accuracy");
   StudyRunOptions options;
   options.output_directory = out.string();
   options.cache_directory = (out / "cache").string();
@@ -106,38 +105,15 @@ TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
   fs::remove_all(out);
 }
 
-/// The case of `results` with this id (fails the test when there is none).
-const json& case_with_id(const json& results, const std::string& id) {
-  for (const auto& c : results.at("cases"))
-    if (c.at("id") == id) return c;
-  ADD_FAILURE() << "no case " << id;
-  static const json none = json::object();
-  return none;
-}
-
 // Problem variants end to end on coarse meshes (a/2, two levels: seconds): three problems, each
 // with its own FEM reference (ν = 0.30 and 0.45 on B3, and B5 at θ = 30° pushed 20° off the
 // normal), their MFS cases under prefixed ids, the B5 probes in the contact frame, the accuracy
 // flags on a broken series and not on the default one, Table 2's engine-default row found by
 // settings, and resuming one variant with --only.
 TEST(StudyVariants, SeparateReferencesB5AndAccuracyFlags) {
-  const fs::path out = fs::temp_directory_path() / "touchstone_study_variants";
-  fs::remove_all(out);
-  fs::create_directories(out);
+  const fs::path out = scratch_directory("study_variants");
   const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
-  const std::string common = R"([problem]
-benchmark = "B3"
-body_radius = "50 mm"
-tool_radius = "2.5 mm"
-local_radius = "12.5 mm"
-youngs_modulus = "10 kPa"
-poisson_ratio = 0.45
-depths = ["0.125 mm", "0.25 mm"]
-[reference]
-config = ")" + studies + R"(b3_reference.toml"
-edge_sizes = ["1.25 mm"]
-refinements = [0, 1]
-)";
+  const std::string common = problem_text("B3", "b3_reference.toml", "1.25 mm");
   const std::string tiny = R"(
 [mfs.tiny_grow]
 formulation = "galerkin"
@@ -188,11 +164,7 @@ formulation = "galerkin"
 node_count = [400]
 )" << tiny;
   const ComparisonStudy study = read_comparison_study((out / "variants.toml").string());
-  StudyRunOptions options;
-  options.output_directory = (out / "run").string();
-  options.cache_directory = (out / "cache").string();
-  options.write_report = false;
-  options.quiet = true;
+  StudyRunOptions options = quiet_run_options(out);
   options.jobs = 2;
   const json results = run_comparison_study(study, options);
 
@@ -310,34 +282,15 @@ node_count = [400]
 // B4 end to end on coarse meshes (a/2 scaled by s/a, two levels): the paper's point tool at two
 // resolutions, each case against the FEM punch of radius its own tip spacing s.
 TEST(PointTool, EachCaseAgainstThePunchOfItsTipSpacing) {
-  const fs::path out = fs::temp_directory_path() / "touchstone_study_point_tool";
-  fs::remove_all(out);
-  fs::create_directories(out);
-  const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
-  std::ofstream(out / "b4.toml") << R"(study = "b4"
-[problem]
-benchmark = "B4"
-body_radius = "50 mm"
-tool_radius = "2.5 mm"
-local_radius = "12.5 mm"
-youngs_modulus = "10 kPa"
-poisson_ratio = 0.45
-depths = ["0.125 mm", "0.25 mm"]
-[reference]
-config = ")" << studies << R"(b2_reference.toml"
-edge_sizes = ["1.25 mm"]
-refinements = [0, 1]
+  const fs::path out = scratch_directory("study_point_tool");
+  std::ofstream(out / "b4.toml") << "study = \"b4\"\n" << problem_text("B4", "b2_reference.toml", "1.25 mm") << R"(
 [mfs.paper]
 paper_mode = true
 [mfs.paper.sprinkling]
 node_count = [34, 200]
 )";
   const ComparisonStudy study = read_comparison_study((out / "b4.toml").string());
-  StudyRunOptions options;
-  options.output_directory = (out / "run").string();
-  options.cache_directory = (out / "cache").string();
-  options.write_report = false;
-  options.quiet = true;
+  StudyRunOptions options = quiet_run_options(out);
   const json results = run_comparison_study(study, options);
 
   const json& coarse = case_with_id(results, "MFS-paper-N34");

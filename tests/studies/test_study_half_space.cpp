@@ -4,22 +4,20 @@
 // the FEM force next to Sneddon's, the MFS force against both, and the probes on the flat top.
 #include "touchstone/studies/study_runner.hpp"
 
+#include "study_test_support.hpp"
+
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 #include "touchstone/studies/config_reader.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-#ifndef TOUCHSTONE_SOURCE_DIR
-#error "TOUCHSTONE_SOURCE_DIR must point at the source tree"
-#endif
 
 namespace {
 
@@ -27,43 +25,18 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace touchstone;
 using namespace touchstone::studies;
-
-const json& case_with_id(const json& results, const std::string& id) {
-  for (const auto& c : results.at("cases"))
-    if (c.at("id") == id) return c;
-  ADD_FAILURE() << "no case " << id;
-  static const json none = json::object();
-  return none;
-}
+using namespace touchstone::studies::testing;
 
 TEST(HalfSpaceStudy, B1EndToEndAgainstTheFemAndSneddon) {
-  const fs::path out = fs::temp_directory_path() / ("touchstone_half_space_" + std::to_string(getpid()));
-  fs::remove_all(out);
-  fs::create_directories(out);
-  std::ofstream(out / "b1.toml") << R"(study = "b1"
-[problem]
-benchmark = "B1"
-body_radius = "50 mm"
-tool_radius = "2.5 mm"
-local_radius = "12.5 mm"
-youngs_modulus = "10 kPa"
-poisson_ratio = 0.45
-depths = ["0.125 mm", "0.25 mm"]
-[reference]
-config = ")" << TOUCHSTONE_SOURCE_DIR << R"(/studies/b1_reference.toml"
-edge_sizes = ["0.625 mm"]
-refinements = [0, 1]
+  const fs::path out = scratch_directory("half_space");
+  std::ofstream(out / "b1.toml") << "study = \"b1\"\n" << problem_text("B1", "b1_reference.toml", "0.625 mm") << R"(
 [mfs.g]
 formulation = "galerkin"
 [mfs.g.sprinkling]
 node_count = [100]
 )";
   const ComparisonStudy study = read_comparison_study((out / "b1.toml").string());
-  StudyRunOptions options;
-  options.output_directory = (out / "run").string();
-  options.cache_directory = (out / "cache").string();
-  options.write_report = false;
-  options.quiet = true;
+  StudyRunOptions options = quiet_run_options(out);
   const json results = run_comparison_study(study, options);
 
   // Sneddon at δ = 0.25 mm: 2 E a δ / (1 − ν²) = 15.674 mN, carried by the reference.
