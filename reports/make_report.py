@@ -520,6 +520,10 @@ def main(out):
 
     if several:
         problems_section(w, results, problems, mfs_all, all_cases, plots)
+    elif (results.get("problem") or {}).get("point_tool"):
+        w("## B4: the point tool against the punch of its tip spacing")
+        w("")
+        point_tool_section(w, problems[0], mfs_all, plots)
     failures_section(w, mfs_all, several)
 
     w("## Error against run time")
