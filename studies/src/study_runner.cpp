@@ -990,12 +990,33 @@ class StudyRun {
       const std::string domain = r.problem().benchmark == meshes::Benchmark::B3
                                      ? "on the identical domain"
                                      : "on the whole body " + meshes::to_string(r.problem().benchmark) + " (truncation included)";
+      // A missed force target says how far off it is in N too: the series' own rate, extrapolated.
+      std::vector<std::pair<double, double>> n_and_error;
+      for (const json* c : series_cases)
+        n_and_error.push_back({value_or_nan(c->at("params"), "node_count"), value_or_nan(c->at("error"), "force_rel")});
+      const auto add_rate = [&](double target) {
+        json& t = list.back();
+        if (t.at("met") != false) return;
+        const ConvergenceInN fit = convergence_in_n(n_and_error, target);
+        t["convergence_in_n"] = {{"order", number(fit.order)}, {"n_at_target", number(fit.n_at_target)},
+                                 {"node_counts", fit.node_counts}};
+        if (std::isfinite(fit.n_at_target))
+          t["shortfall"] = t.at("shortfall").get<std::string>() + "; the series' error falls as N^" +
+                           format_number(std::round(100 * fit.order) / 100) + " (fit over N = " +
+                           format_number(fit.node_counts.front()) + "-" + format_number(fit.node_counts.back()) +
+                           "), which reaches the target at N ~ " + format_number(std::round(fit.n_at_target));
+        else if (std::isfinite(fit.order))
+          t["shortfall"] = t.at("shortfall").get<std::string>() + "; the series' error does not fall with N (fit over N = " +
+                           format_number(fit.node_counts.front()) + "-" + format_number(fit.node_counts.back()) + ")";
+      };
       std::string basis;
       double v = best("force_rel", 60, basis);
       add("mfs_force_n60:" + tag + s.name, label + " vs FEM " + domain + ", tool force, best N <= 60", 0.05, v, "relative", basis);
+      add_rate(0.05);
       basis.clear();
       v = best("force_rel", 300, basis);
       add("mfs_force_n300:" + tag + s.name, label + " vs FEM " + domain + ", tool force, best N <= 300", 0.01, v, "relative", basis);
+      add_rate(0.01);
       basis.clear();
       v = best("disp_rel_l2", std::numeric_limits<int>::max(), basis);
       add("mfs_displacement:" + tag + s.name, label + " vs FEM, displacement at probes (relative L2), best N", 0.02, v, "relative", basis);
@@ -1616,6 +1637,32 @@ json to_json(const AccuracyIndicator& a) {
           {"force_change_from_previous_n", number(a.force_change_from_previous_n)},
           {"previous_node_count", a.previous_node_count},
           {"flags", a.flags}};
+}
+
+ConvergenceInN convergence_in_n(std::vector<std::pair<double, double>> n_and_error, double target, std::size_t max_points) {
+  ConvergenceInN fit;
+  n_and_error.erase(std::remove_if(n_and_error.begin(), n_and_error.end(),
+                                   [](const auto& p) { return !(p.first > 0 && p.second > 0 && std::isfinite(p.second)); }),
+                    n_and_error.end());
+  std::sort(n_and_error.begin(), n_and_error.end());
+  if (n_and_error.size() > max_points) n_and_error.erase(n_and_error.begin(), n_and_error.end() - max_points);
+  if (n_and_error.size() < 3) return fit;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& [n, e] : n_and_error) {
+    const double x = std::log(n), y = std::log(e);
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+    fit.node_counts.push_back(n);
+  }
+  const double m = static_cast<double>(n_and_error.size());
+  const double denominator = m * sxx - sx * sx;
+  if (!(denominator > 0)) return fit;
+  fit.order = (m * sxy - sx * sy) / denominator;
+  const double intercept = (sy - fit.order * sx) / m;
+  if (fit.order < 0 && target > 0) fit.n_at_target = std::exp((std::log(target) - intercept) / fit.order);
+  return fit;
 }
 
 ProbeComparison compare_probes(const json& probes, const json& reference_probes) {

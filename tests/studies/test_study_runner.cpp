@@ -523,6 +523,27 @@ TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {
   EXPECT_TRUE(a.flags.empty());
 }
 
+TEST(ConvergenceInN, FitsThePowerLawOfTheLargestNodeCounts) {
+  // e = 40 N^-0.7 exactly at the four largest N; the smallest N is off the line and left out.
+  std::vector<std::pair<double, double>> points{{35, 10.0}};
+  for (const double n : {100.0, 205.0, 301.0, 414.0}) points.push_back({n, 40 * std::pow(n, -0.7)});
+  ConvergenceInN fit = convergence_in_n(points, 0.05);
+  EXPECT_NEAR(fit.order, -0.7, 1e-12);
+  EXPECT_NEAR(fit.n_at_target, std::pow(40 / 0.05, 1 / 0.7), 1e-9 * std::pow(40 / 0.05, 1 / 0.7));
+  EXPECT_EQ(fit.node_counts, (std::vector<double>{100, 205, 301, 414}));
+  // All five points: the outlier bends the fit.
+  fit = convergence_in_n(points, 0.05, 5);
+  EXPECT_GT(std::abs(fit.order + 0.7), 0.05);
+  // An error that grows with N has no N at which it reaches the target.
+  fit = convergence_in_n({{100, 0.1}, {200, 0.2}, {400, 0.4}}, 0.05);
+  EXPECT_NEAR(fit.order, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(fit.n_at_target));
+  // Fewer than three usable points (failed cases are NaN, zero errors cannot be logged).
+  fit = convergence_in_n({{100, 0.1}, {200, std::nan("")}, {400, 0.0}, {800, 0.05}}, 0.05);
+  EXPECT_TRUE(std::isnan(fit.order));
+  EXPECT_TRUE(std::isnan(fit.n_at_target));
+}
+
 TEST(ProbeComparison, MatchesByNameAndSkipsMissingProbes) {
   const json probes = json::array({{{"name", "axis_1a"}, {"displacement_m", {0.0, 0.0, -1e-4}}, {"found", true}},
                                    {{"name", "only_here"}, {"displacement_m", {0.0, 0.0, 5.0}}, {"found", true}},

@@ -209,6 +209,18 @@ AccuracyIndicator accuracy_indicator(const nlohmann::json& mfs_case, const Eigen
                                      const nlohmann::json* previous = nullptr);
 nlohmann::json to_json(const AccuracyIndicator& indicator);
 
+/// How fast a series' error falls with its node count: a least-squares line through
+/// (log N, log error) over its largest node counts, and where that line reaches a target.
+struct ConvergenceInN {
+  double order = std::numeric_limits<double>::quiet_NaN();  ///< slope p of error ∝ N^p (< 0: falling)
+  /// N at which the fitted line reaches the target; NaN when p ≥ 0 (no rate to extrapolate).
+  double n_at_target = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> node_counts;  ///< the N fitted
+};
+/// Fits the last `max_points` (at least 3) of `n_and_error` (actual N, relative error > 0),
+/// sorted by N. Fewer than 3 usable points: order NaN.
+ConvergenceInN convergence_in_n(std::vector<std::pair<double, double>> n_and_error, double target, std::size_t max_points = 4);
+
 /// Relative L2 and max-abs difference [m] of probe displacements matched by name (a probe
 /// missing or not found in either list is skipped); `count` is the number compared.
 struct ProbeComparison {
