@@ -1,5 +1,7 @@
 #include "touchstone/studies/reference_study.hpp"
 
+#include "least_squares_line.hpp"
+
 #include "touchstone/fem/richardson.hpp"
 #include "touchstone/studies/probes.hpp"
 #include "touchstone/studies/provenance.hpp"
@@ -458,18 +460,14 @@ class Runner {
     for (const auto& [key, points] : series) {
       json entry{{"contact", fem::to_string(static_cast<fem::Contact>(key.first))}, {"poisson_ratio", key.second}};
       json xs = json::array(), ys = json::array();
-      double sx = 0, sy = 0, sxx = 0, sxy = 0;
       for (const auto& [x, y] : points) {
         xs.push_back(x);
         ys.push_back(y);
-        sx += x, sy += y, sxx += x * x, sxy += x * y;
       }
-      const double n = points.size();
       entry["a_over_W"] = xs;
       entry["force_ratio"] = ys;
-      if (points.size() >= 2 && n * sxx - sx * sx > 0) {
-        const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-        const double intercept = (sy - slope * sx) / n;
+      if (const std::optional<Line> line = least_squares_line(points)) {
+        const double slope = line->slope, intercept = line->intercept;
         entry["extrapolated_ratio"] = intercept;
         entry["finite_size_slope"] = slope;
         entry["error_rel"] = std::abs(intercept - 1);

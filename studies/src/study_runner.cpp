@@ -7,6 +7,8 @@
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/version.hpp"
 
+#include "least_squares_line.hpp"
+
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -289,6 +292,8 @@ struct ProblemRun {
   std::map<long long, ReferenceValue> punch_references;
   const ComparisonProblem& problem() const { return sp->problem; }
   static long long micrometres(double length_m) { return std::llround(length_m * 1e6); }
+  /// The FEM punch radius paired with a tip spacing [m]: the spacing to the micrometre.
+  static double punch_radius_m(double tip_spacing_m) { return 1e-6 * static_cast<double>(micrometres(tip_spacing_m)); }
   const ReferenceValue& reference_of(std::size_t case_index) const {
     return problem().point_tool ? punch_references.at(micrometres(tip_spacing_m.at(case_index))) : reference;
   }
@@ -480,7 +485,7 @@ class StudyRun {
       if (r.problem().point_tool) {
         const std::size_t k = jobs_list[i].case_index;
         c["params"]["tip_spacing_m"] = r.tip_spacing_m.at(k);
-        c["params"]["fem_punch_radius_m"] = 1e-6 * static_cast<double>(ProblemRun::micrometres(r.tip_spacing_m.at(k)));
+        c["params"]["fem_punch_radius_m"] = ProblemRun::punch_radius_m(r.tip_spacing_m.at(k));
       }
       const json& flags = c.at("accuracy").at("flags");
       std::string flag_text;
@@ -619,9 +624,7 @@ class StudyRun {
     if (!distinct.empty()) total_ += distinct.size() - 1;
     json entries = json::array();
     const ComparisonProblem& problem = r.problem();
-    for (const double s : spacing) {
-      const long long key = ProblemRun::micrometres(s);
-      if (r.punch_references.count(key) != 0) continue;
+    for (const long long key : distinct) {
       const double radius_m = 1e-6 * static_cast<double>(key);
       const double scale = radius_m / problem.tool_radius_m;
       ComparisonProblem punch = problem;
@@ -950,7 +953,8 @@ class StudyRun {
       list.push_back(t);
     };
     for (const ProblemRun& r : problems_) {
-    if (!runs_reference(r)) continue;
+    // B4 without a selected case has no punch, so no reference.
+    if (!runs_reference(r) || r.reference.id.empty()) continue;
     // B4: the least accurate of its punch references.
     const ReferenceValue* worst = &r.reference;
     for (const auto& [key, punch] : r.punch_references)
@@ -1647,21 +1651,15 @@ ConvergenceInN convergence_in_n(std::vector<std::pair<double, double>> n_and_err
   std::sort(n_and_error.begin(), n_and_error.end());
   if (n_and_error.size() > max_points) n_and_error.erase(n_and_error.begin(), n_and_error.end() - max_points);
   if (n_and_error.size() < 3) return fit;
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  std::vector<std::pair<double, double>> log_log;
   for (const auto& [n, e] : n_and_error) {
-    const double x = std::log(n), y = std::log(e);
-    sx += x;
-    sy += y;
-    sxx += x * x;
-    sxy += x * y;
+    log_log.push_back({std::log(n), std::log(e)});
     fit.node_counts.push_back(n);
   }
-  const double m = static_cast<double>(n_and_error.size());
-  const double denominator = m * sxx - sx * sx;
-  if (!(denominator > 0)) return fit;
-  fit.order = (m * sxy - sx * sy) / denominator;
-  const double intercept = (sy - fit.order * sx) / m;
-  if (fit.order < 0 && target > 0) fit.n_at_target = std::exp((std::log(target) - intercept) / fit.order);
+  const std::optional<Line> line = least_squares_line(log_log);
+  if (!line) return fit;
+  fit.order = line->slope;
+  if (fit.order < 0 && target > 0) fit.n_at_target = std::exp((std::log(target) - line->intercept) / fit.order);
   return fit;
 }
 

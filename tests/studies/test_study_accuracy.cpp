@@ -114,6 +114,11 @@ TEST(StudyVariants, SeparateReferencesB5AndAccuracyFlags) {
   const fs::path out = scratch_directory("study_variants");
   const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
   const std::string common = problem_text("B3", "b3_reference.toml", "1.25 mm");
+  // A variant's own reference: the study's coarse mesh on another FEM file.
+  const auto coarse_reference = [&](const std::string& variant, const std::string& config) {
+    return "[problems." + variant + ".reference]\nconfig = \"" + studies + config +
+           "\"\nedge_sizes = [\"1.25 mm\"]\nrefinements = [0, 1]\n";
+  };
   const std::string tiny = R"(
 [mfs.tiny_grow]
 formulation = "galerkin"
@@ -135,26 +140,14 @@ benchmark = "B5"
 contact_polar_angle = "30 deg"
 tilt = "20 deg"
 series = ["g"]
-[problems.b5.reference]
-config = ")" << studies << R"(b5_reference.toml"
-edge_sizes = ["1.25 mm"]
-refinements = [0, 1]
-[problems.b5_normal]
+)" << coarse_reference("b5", "b5_reference.toml") << R"([problems.b5_normal]
 benchmark = "B5"
 contact_polar_angle = "30 deg"
 series = ["g400"]
-[problems.b5_normal.reference]
-config = ")" << studies << R"(b5_reference.toml"
-edge_sizes = ["1.25 mm"]
-refinements = [0, 1]
-[problems.b2]
+)" << coarse_reference("b5_normal", "b5_reference.toml") << R"([problems.b2]
 benchmark = "B2"
 series = ["g400"]
-[problems.b2.reference]
-config = ")" << studies << R"(b2_reference.toml"
-edge_sizes = ["1.25 mm"]
-refinements = [0, 1]
-[mfs.g]
+)" << coarse_reference("b2", "b2_reference.toml") << R"([mfs.g]
 formulation = "galerkin"
 [mfs.g.sprinkling]
 node_count = [100]
