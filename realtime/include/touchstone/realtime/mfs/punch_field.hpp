@@ -1,0 +1,59 @@
+#pragma once
+/// @file
+/// The closed-form displacement and stress fields of a rigid flat circular punch of radius a on
+/// an elastic half-space: the singular fields that enrich the local MFS model.
+///
+/// Normal mode (Sneddon 1946, frictionless): the punch pressed by δ along its axis. Total force
+/// P = 4 G a δ / (1 − ν); pressure −P / (2πa √(a² − r²)) under the punch; u_z = δ on the disk,
+/// (2δ/π) arcsin(a/r) outside it.
+/// Tangential modes (stuck punch, Mindlin/Johnson): the punch moved by Δ along one of its face's
+/// axes with force Q = 8 G a Δ / (2 − ν); the ≈ 1 % normal–tangential coupling at ν = 0.45 is
+/// neglected (exact at ν = 0.5).
+///
+/// Frame: origin at the centre of the rim circle, e₃ along the push direction (into the body),
+/// e₁, e₂ spanning the rim plane; z = e₃·(x − origin) ≥ 0 inside a half-space. The complex
+/// branch q = −i √(−(r² + s²)), s = z − i a, continues smoothly through the contact disk into
+/// z < 0 for r < a, so the field can be anchored on the rim plane of a slightly curved patch.
+///
+/// Every field is per metre of punch displacement (δ or Δ = 1 m): displacements are
+/// dimensionless [m/m] and stresses are in [Pa/m]. Displacements do not depend on G.
+
+#include "touchstone/realtime/mfs/material.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+
+namespace touchstone::realtime::mfs {
+
+/// The three rigid translations of the punch face: along e₃ (normal), e₁, e₂ (tangential).
+enum class PunchMode : std::uint8_t { normal = 0, tangential_1 = 1, tangential_2 = 2 };
+
+/// Where a punch field lives: origin at the rim-circle centre, rotation columns (e₁, e₂, e₃),
+/// e₃ the push direction into the body.
+struct PunchFrame {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  /// A right-handed frame with e₃ = direction (normalised) and e₁ ⟂ e₃ chosen stably.
+  static PunchFrame along(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction);
+};
+
+/// One sample of a punch field in global coordinates, per metre of punch displacement.
+struct PunchFieldSample {
+  Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< u [m/m]
+  Eigen::Matrix3d stress_Pa_per_m = Eigen::Matrix3d::Zero();  ///< σ (symmetric, tension positive) [Pa/m]
+};
+
+/// The field of `mode` at x [m] for a punch of radius_m on `material` in `frame`. Finite
+/// everywhere except on the rim circle itself (r = a, z = 0), where the stress is singular as
+/// ρ^(−1/2) in the distance ρ to the rim: the caller's quadrature must not sample the rim.
+/// Points above the rim plane outside the rim (z < 0, r ≥ a) are outside the body; they are
+/// evaluated at z = max(z, 1e-13 a) so that the branch never flips.
+PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const Material& material,
+                             const Eigen::Vector3d& x) noexcept;
+
+/// The half-space tool stiffness of each mode [N/m]: 4 G a / (1 − ν) (normal), 8 G a / (2 − ν)
+/// (tangential).
+double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const Material& material) noexcept;
+
+}  // namespace touchstone::realtime::mfs

@@ -1,0 +1,173 @@
+#include "touchstone/realtime/mfs/punch_field.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+using Complex = std::complex<double>;
+
+/// The complex helpers of the punch solutions at (r, z): s = z − i a, q = −i √(−(r² + s²)),
+/// w = s + q, χ = −arg w (principal branches).
+struct Helpers {
+  Complex s, q, w;
+  double chi;
+  Helpers(double r, double z, double a) : s(z, -a) {
+    q = Complex(0, -1) * std::sqrt(-(r * r + s * s));
+    w = s + q;
+    chi = -std::arg(w);
+  }
+};
+
+/// Sneddon's frictionless punch per unit depth, in the punch frame (local coordinates).
+PunchFieldSample sneddon_local(const Eigen::Vector3d& p, double a, const Material& material) {
+  const double nu = material.poisson_ratio, G = material.mu_Pa();
+  const double r = std::hypot(p.x(), p.y()), z = p.z();
+  const Helpers h(r, z, a);
+  const double chi_z = -(1.0 / h.q).imag();
+  const double chi_zz = (h.s / (h.q * h.q * h.q)).imag();
+  // χ_r/r and Φ_r/r by their axis series where r/a is small (the closed forms cancel there).
+  double chi_r_over_r, phi_r_over_r;
+  if (r < 1e-3 * a) {
+    chi_r_over_r = -(1.0 / (2.0 * h.s * h.s)).imag();
+    phi_r_over_r = a / (2 * (z * z + a * a));
+  } else {
+    chi_r_over_r = (h.s / h.q).imag() / (r * r);
+    phi_r_over_r = (h.q - h.s).imag() / (r * r);
+  }
+  const double chi_r = chi_r_over_r * r, phi_r = phi_r_over_r * r;
+  const double chi_rz = (r / (h.q * h.q * h.q)).imag();
+  const double chi_rr = -chi_zz - chi_r_over_r;
+  const double phi_rr = -chi_z - phi_r_over_r;
+  const double K = 1.0 / (pi * (1 - nu)), S = 2 * G * K;
+  const double ur = -K * ((1 - 2 * nu) * phi_r + z * chi_r);
+  const double uz = K * (2 * (1 - nu) * h.chi - z * chi_z);
+  const double srr = S * (2 * nu * chi_z - (1 - 2 * nu) * phi_rr - z * chi_rr);
+  const double stt = S * (2 * nu * chi_z - (1 - 2 * nu) * phi_r_over_r - z * chi_r_over_r);
+  const double szz = S * (chi_z - z * chi_zz);
+  const double srz = -S * z * chi_rz;
+  const double c = r > 0 ? p.x() / r : 1.0, sn = r > 0 ? p.y() / r : 0.0;
+  PunchFieldSample out;
+  out.displacement = {ur * c, ur * sn, uz};
+  Eigen::Matrix3d& t = out.stress_Pa_per_m;
+  t(0, 0) = srr * c * c + stt * sn * sn;
+  t(1, 1) = srr * sn * sn + stt * c * c;
+  t(2, 2) = szz;
+  t(0, 1) = t(1, 0) = (srr - stt) * c * sn;
+  t(0, 2) = t(2, 0) = srz * c;
+  t(1, 2) = t(2, 1) = srz * sn;
+  return out;
+}
+
+/// The stuck punch moved by a unit displacement along local x (force Q = 8Ga/(2 − ν)):
+/// the displacement only, in local coordinates. Needs r > 0.
+Eigen::Vector3d tangential_displacement_off_axis(const Eigen::Vector3d& p, double a, double nu) {
+  const double r = std::hypot(p.x(), p.y()), z = p.z();
+  const double c = p.x() / r, sn = p.y() / r;
+  const Helpers h(r, z, a);
+  const Complex& s = h.s;
+  const Complex& q = h.q;
+  const Complex& w = h.w;
+  const double chi = h.chi;
+  const double chi_r = (s / q).imag() / r;
+  const double phi_r = (q - s).imag() / r;
+  const Complex lnw = std::log(w);
+  const double th_r = 0.5 * r * ((s / w).imag() - chi);
+  const double th_rr = 0.5 * ((s / w).imag() - chi) + 0.5 * r * ((-s * r / (q * w * w)).imag() - chi_r);
+  const Complex i(0, 1);
+  const Complex H = 0.5 * (s * q - r * r * lnw) + i * a * q;
+  const Complex H_r = 0.5 * (s * r / q - 2 * r * lnw - r * r * r / (q * w)) + i * a * r / q;
+  const double la_r = H.imag() / r;
+  const double la_rr = -H.imag() / (r * r) + H_r.imag() / r;
+  const auto xx = [&](double frr, double fr) { return frr * c * c + fr / r * sn * sn; };
+  const auto xy = [&](double frr, double fr) { return (frr - fr / r) * c * sn; };
+  const double C = 2.0 / (pi * (2 - nu));  // Q / (4πGa) with Q = 8Ga/(2 − ν)
+  return {C * (2 * chi - xx(la_rr, la_r) - (1 - 2 * nu) * xx(th_rr, th_r)),
+          C * (-xy(la_rr, la_r) - (1 - 2 * nu) * xy(th_rr, th_r)),
+          C * ((1 - 2 * nu) * phi_r - z * chi_r) * c};
+}
+
+/// The same on and near the axis too: within 1e-3 a of it (where the closed form divides by r)
+/// the mean of the two points at ±1e-3 a across the axis, second-order accurate (the field is
+/// smooth there).
+Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, double nu) {
+  const double r = std::hypot(p.x(), p.y()), eps = 1e-3 * a;
+  if (r >= eps) return tangential_displacement_off_axis(p, a, nu);
+  const Eigen::Vector2d dir = r > 0 ? Eigen::Vector2d(p.x() / r, p.y() / r) : Eigen::Vector2d(1, 0);
+  const Eigen::Vector3d plus(dir.x() * eps, dir.y() * eps, p.z()), minus(-dir.x() * eps, -dir.y() * eps, p.z());
+  const double t = (r + eps) / (2 * eps);  // linear interpolation weight of `plus`
+  return t * tangential_displacement_off_axis(plus, a, nu) + (1 - t) * tangential_displacement_off_axis(minus, a, nu);
+}
+
+/// Where a point may be evaluated: never above the rim plane outside the rim (the branch cut).
+Eigen::Vector3d admissible(Eigen::Vector3d p, double a) {
+  if (std::hypot(p.x(), p.y()) >= a) p.z() = std::max(p.z(), 1e-13 * a);
+  return p;
+}
+
+/// The tangential mode along local x with its stress from a second-order finite-difference
+/// gradient (step 1e-3 of the distance to the rim, one-sided near the free surface).
+PunchFieldSample tangential_local(const Eigen::Vector3d& p, double a, const Material& material) {
+  const double nu = material.poisson_ratio;
+  const auto u = [&](const Eigen::Vector3d& y) { return tangential_displacement(admissible(y, a), a, nu); };
+  const double r = std::hypot(p.x(), p.y());
+  const double rim_distance = std::hypot(r - a, p.z());
+  const double step = 1e-3 * std::clamp(rim_distance, 1e-9 * a, a);
+  PunchFieldSample out;
+  out.displacement = u(p);
+  Eigen::Matrix3d gradient;  // ∂u_i/∂x_j
+  for (int j = 0; j < 3; ++j) {
+    Eigen::Vector3d e = Eigen::Vector3d::Zero();
+    e[j] = step;
+    const bool one_sided = j == 2 && r >= a - step && p.z() < step;
+    if (one_sided)
+      gradient.col(j) = (-3 * out.displacement + 4 * u(p + e) - u(p + 2 * e)) / (2 * step);
+    else
+      gradient.col(j) = (u(p + e) - u(p - e)) / (2 * step);
+  }
+  const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
+  out.stress_Pa_per_m = material.lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * material.mu_Pa() * strain;
+  return out;
+}
+
+}  // namespace
+
+PunchFrame PunchFrame::along(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
+  PunchFrame frame;
+  frame.origin = origin;
+  const Eigen::Vector3d e3 = direction.normalized();
+  // e₁: the global axis least aligned with e₃, made orthogonal.
+  Eigen::Index least = 0;
+  e3.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d e1 = (Eigen::Vector3d::Unit(least) - e3[least] * e3).normalized();
+  frame.axes.col(0) = e1;
+  frame.axes.col(1) = e3.cross(e1);
+  frame.axes.col(2) = e3;
+  return frame;
+}
+
+PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const Material& material,
+                             const Eigen::Vector3d& x) noexcept {
+  const Eigen::Matrix3d& R = frame.axes;
+  Eigen::Vector3d local = R.transpose() * (x - frame.origin);
+  // The tangential_2 mode is the tangential_1 mode turned by 90° about e₃: u₂(p) = Q u₁(Qᵀ p).
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+  if (mode == PunchMode::tangential_2) turn << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  local = turn.transpose() * local;
+  PunchFieldSample sample = mode == PunchMode::normal ? sneddon_local(admissible(local, radius_m), radius_m, material)
+                                                      : tangential_local(local, radius_m, material);
+  const Eigen::Matrix3d to_global = R * turn;
+  sample.displacement = to_global * sample.displacement;
+  sample.stress_Pa_per_m = to_global * sample.stress_Pa_per_m * to_global.transpose();
+  return sample;
+}
+
+double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const Material& material) noexcept {
+  const double G = material.mu_Pa(), nu = material.poisson_ratio;
+  return mode == PunchMode::normal ? 4 * G * radius_m / (1 - nu) : 8 * G * radius_m / (2 - nu);
+}
+
+}  // namespace touchstone::realtime::mfs
