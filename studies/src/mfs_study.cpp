@@ -41,6 +41,13 @@ const std::vector<Named<mfs::Layout>> layouts{{"radial_shells", mfs::Layout::rad
                                               {"lattice", mfs::Layout::lattice}};
 const std::vector<Named<mfs::OuterCondition>> outer_conditions{{"clamped", mfs::OuterCondition::clamped},
                                                                {"traction_free", mfs::OuterCondition::traction_free}};
+const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
+    {"body_aware", mfs::ExteriorCondition::body_aware},
+    {"half_space", mfs::ExteriorCondition::half_space},
+    {"clamped", mfs::ExteriorCondition::clamped}};
+const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
+                                                        {"galerkin", mfs::Formulation::galerkin},
+                                                        {"collocation", mfs::Formulation::collocation}};
 const std::vector<Named<mfs::PatchCondition>> patch_conditions{{"frictionless", mfs::PatchCondition::frictionless},
                                                                {"bonded", mfs::PatchCondition::bonded}};
 const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
@@ -211,6 +218,14 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"formulation", mfs::to_string(s.formulation)},
           {"penalty_factor", s.galerkin.penalty_factor},
           {"constraint", mfs::to_string(s.galerkin.constraint)},
+          {"exterior", name_of(exterior_conditions, s.enriched.exterior)},
+          {"enriched_supports", {s.enriched.support_neighbours, s.enriched.min_point_neighbours}},
+          {"enriched_volume_quadrature",
+           {s.enriched.volume_radial_points, s.enriched.volume_polar_points, s.enriched.volume_azimuth_points}},
+          {"enriched_boundary_quadrature",
+           {s.enriched.patch_radial_points, s.enriched.patch_angular_points, s.enriched.free_radial_points,
+            s.enriched.free_azimuth_points, s.enriched.cut_polar_points, s.enriched.cut_azimuth_points}},
+          {"cut_multiplier_degree", s.enriched.cut_multiplier_degree},
           {"local_radius_m", sp.local_radius_m},
           {"layout", name_of(layouts, sp.layout)},
           {"ring_nodes", sp.ring_nodes},
@@ -242,6 +257,30 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"extraction_shell", {s.force.extraction_inner_tool_radii, s.force.extraction_outer_local_radii}},
           {"extraction_quadrature",
            {s.force.extraction_radial_points, s.force.extraction_polar_points, s.force.extraction_azimuth_points}}};
+}
+
+/// What the enrichment offers the accuracy indicator: the exterior actually used, the
+/// amplitudes per metre of depth (1 for the normal mode on a half-space; a clamped cut at 5a
+/// raises it to about 1.4), and the MLS part's share of the strain energy (small when the
+/// singular fields carry the solution).
+json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution& solution, const mfs::ToolContact& contact) {
+  const mfs::EnrichedModel& e = model.enriched;
+  const Eigen::Index nodal = 3 * static_cast<Eigen::Index>(model.cloud.size());
+  json amplitudes = json::array();
+  const Eigen::VectorXd per_depth = e.unit_response.bottomRows(e.unit_response.rows() - nodal) * contact.direction.normalized();
+  for (Eigen::Index i = 0; i < per_depth.size(); ++i) amplitudes.push_back(number(per_depth[i]));
+  const Eigen::VectorXd mls = solution.parameters.head(nodal);
+  const double mls_energy = 0.5 * mls.dot(e.stiffness.topLeftCorner(nodal, nodal) * mls);
+  const double total = 0.5 * solution.parameters.dot(e.stiffness * solution.parameters);
+  return {{"exterior_used", model.exterior_used},
+          {"exterior_note", model.exterior_note},
+          {"amplitudes_per_depth", amplitudes},
+          {"mls_energy_share", number(total > 0 ? mls_energy / total : 0.0)},
+          {"multipliers", e.multipliers},
+          {"mls_evaluations", e.mls_evaluations},
+          {"volume_points", e.volume_points},
+          {"boundary_points", e.boundary_points},
+          {"kkt_relative_residual", number(e.kkt_relative_residual)}};
 }
 
 json null_qoi() {
@@ -318,9 +357,14 @@ class CaseRunner {
     params["nodes_by_kind"] = {{"interior", kinds[0]}, {"free_surface", kinds[1]}, {"tool_patch", kinds[2]}, {"cut", kinds[3]}};
     // Collocation: over its collocation points; Galerkin: over its volume quadrature points.
     const bool galerkin = settings.formulation == mfs::Formulation::galerkin;
-    c["qoi"]["min_rcond"] = number(galerkin ? model.galerkin.min_rcond : model.system.status.min_rcond);
+    const bool enriched = settings.formulation == mfs::Formulation::enriched;
+    c["qoi"]["min_rcond"] = number(enriched ? model.enriched.min_rcond
+                                   : galerkin ? model.galerkin.min_rcond
+                                              : model.system.status.min_rcond);
     c["diagnostics"] = {{"max_support_scale_used",
-                         number(galerkin ? model.galerkin.max_support_scale : model.system.status.max_support_scale)},
+                         number(enriched ? model.enriched.max_support_scale
+                                : galerkin ? model.galerkin.max_support_scale
+                                           : model.system.status.max_support_scale)},
                         {"max_neighbours", model.system.status.max_neighbours},
                         {"mean_neighbours", number(model.system.status.mean_neighbours)},
                         {"clamped_quadrature_points", model.clamped_points}};
@@ -353,6 +397,7 @@ class CaseRunner {
       return;
     }
 
+    if (enriched) c["diagnostics"]["enriched"] = enriched_diagnostics(model, solution, contact);
     const mfs::ToolForces& f = solution.forces;
     const Eigen::Vector3d& d = contact.direction;
     const double axial = f.haptic_N.dot(d);
@@ -361,14 +406,16 @@ class CaseRunner {
     qoi["force_N"] = vector_json(f.haptic_N);
     qoi["axial_force_N"] = number(axial);
     qoi["stiffness_N_per_m"] = number(std::abs(axial) / study_.depth_m);
-    qoi["energy_J"] = settings.force.energy ? number(f.energy_J) : json(nullptr);
+    qoi["energy_J"] = settings.force.energy || enriched ? number(f.energy_J) : json(nullptr);
     qoi["k_star"] = number(axial / (e * a * study_.depth_m));
     qoi["forces_by_method_N"] = {
         {"traction_integral", model.traction_available ? vector_json(f.traction_integral_N) : json(nullptr)},
         {"traction_surface", vector_json(f.traction_surface_N)},
-        {"reaction", settings.force.reaction ? vector_json(f.reaction_N) : json(nullptr)},
-        {"paper_partition", vector_json(f.paper_partition_N)},
-        {"energy_along_tool", settings.force.energy ? number(f.energy_force_N) : json(nullptr)}};
+        {"reaction", (enriched ? model.enriched.exterior == mfs::ExteriorCondition::clamped : settings.force.reaction)
+                         ? vector_json(f.reaction_N)
+                         : json(nullptr)},
+        {"paper_partition", enriched ? json(nullptr) : vector_json(f.paper_partition_N)},
+        {"energy_along_tool", settings.force.energy || enriched ? number(f.energy_force_N) : json(nullptr)}};
     qoi["tool_stiffness_matrix_N_per_m"] = matrix_json(model.tool_stiffness_N_per_m);
     qoi["probes"] = probes(model, solution.parameters, contact);
     if (settings.paper_mode) {
@@ -382,7 +429,7 @@ class CaseRunner {
     mfs::displacement_at(model, solution.parameters, cloud.positions, nodal);
     fields.displacement_m.resize(3 * static_cast<Eigen::Index>(cloud.size()));
     for (std::size_t j = 0; j < cloud.size(); ++j) fields.displacement_m.segment<3>(3 * static_cast<Eigen::Index>(j)) = nodal[j];
-    fields.parameters_m = solution.parameters;
+    fields.parameters_m = solution.parameters.head(3 * static_cast<Eigen::Index>(cloud.size()));
     fields.rcond = node_rcond(cloud, settings.collocation.mls);
     write_vtu(c, cloud, fields, vtu_name);
     if (!options_.reference_field_path.empty()) compare_with_reference(c, model, solution.parameters, contact);
@@ -537,9 +584,7 @@ void MfsStudy::validate() const {
 void read_local_model_sections(ConfigTable& config, mfs::LocalModelSettings& s) {
   // Strong form at points (the paper) or weak form (De & Bathe's MFS), each with the haptic
   // method that suits it unless [force] haptic_method says otherwise.
-  s.formulation = config.choice("formulation", {"collocation", "galerkin"}, mfs::to_string(s.formulation)) == "galerkin"
-                      ? mfs::Formulation::galerkin
-                      : mfs::Formulation::collocation;
+  s.formulation = read_choice(config, "formulation", formulations, s.formulation);
   s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
   if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
   ConfigTable galerkin = config.table("galerkin");
@@ -547,6 +592,22 @@ void read_local_model_sections(ConfigTable& config, mfs::LocalModelSettings& s) 
   s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
                               ? mfs::Constraint::nitsche
                               : mfs::Constraint::penalty;
+
+  ConfigTable enriched = config.table("enriched");
+  mfs::EnrichedSettings& e = s.enriched;
+  e.exterior = read_choice(enriched, "exterior", exterior_conditions, e.exterior);
+  e.support_neighbours = read_int(enriched, "support_neighbours", e.support_neighbours);
+  e.min_point_neighbours = read_int(enriched, "min_point_neighbours", e.min_point_neighbours);
+  e.volume_radial_points = read_int(enriched, "volume_radial_points", e.volume_radial_points);
+  e.volume_polar_points = read_int(enriched, "volume_polar_points", e.volume_polar_points);
+  e.volume_azimuth_points = read_int(enriched, "volume_azimuth_points", e.volume_azimuth_points);
+  e.patch_radial_points = read_int(enriched, "patch_radial_points", e.patch_radial_points);
+  e.patch_angular_points = read_int(enriched, "patch_angular_points", e.patch_angular_points);
+  e.free_radial_points = read_int(enriched, "free_radial_points", e.free_radial_points);
+  e.free_azimuth_points = read_int(enriched, "free_azimuth_points", e.free_azimuth_points);
+  e.cut_polar_points = read_int(enriched, "cut_polar_points", e.cut_polar_points);
+  e.cut_azimuth_points = read_int(enriched, "cut_azimuth_points", e.cut_azimuth_points);
+  e.cut_multiplier_degree = read_int(enriched, "cut_multiplier_degree", e.cut_multiplier_degree);
 
   ConfigTable sprinkling = config.table("sprinkling");
   mfs::SprinklingSettings& sp = s.sprinkling;
@@ -667,6 +728,22 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   for (const auto& contact : tool.choice_list("contact", names(patch_conditions), {"frictionless"}))
     study.contacts.push_back(value_of(patch_conditions, contact));
 
+  ConfigTable enriched = config.table("enriched");
+  mfs::EnrichedSettings& e = s.enriched;
+  e.exterior = read_choice(enriched, "exterior", exterior_conditions, e.exterior);
+  e.support_neighbours = read_int(enriched, "support_neighbours", e.support_neighbours);
+  e.min_point_neighbours = read_int(enriched, "min_point_neighbours", e.min_point_neighbours);
+  e.volume_radial_points = read_int(enriched, "volume_radial_points", e.volume_radial_points);
+  e.volume_polar_points = read_int(enriched, "volume_polar_points", e.volume_polar_points);
+  e.volume_azimuth_points = read_int(enriched, "volume_azimuth_points", e.volume_azimuth_points);
+  e.patch_radial_points = read_int(enriched, "patch_radial_points", e.patch_radial_points);
+  e.patch_angular_points = read_int(enriched, "patch_angular_points", e.patch_angular_points);
+  e.free_radial_points = read_int(enriched, "free_radial_points", e.free_radial_points);
+  e.free_azimuth_points = read_int(enriched, "free_azimuth_points", e.free_azimuth_points);
+  e.cut_polar_points = read_int(enriched, "cut_polar_points", e.cut_polar_points);
+  e.cut_azimuth_points = read_int(enriched, "cut_azimuth_points", e.cut_azimuth_points);
+  e.cut_multiplier_degree = read_int(enriched, "cut_multiplier_degree", e.cut_multiplier_degree);
+
   ConfigTable sprinkling = config.table("sprinkling");
   mfs::SprinklingSettings& sp = s.sprinkling;
   study.node_counts.clear();
@@ -724,6 +801,19 @@ std::string resolved_config_toml(const MfsStudy& study) {
       {"formulation", mfs::to_string(s.formulation)},
       {"galerkin", toml::table{{"penalty_factor", s.galerkin.penalty_factor},
                                {"constraint", mfs::to_string(s.galerkin.constraint)}}},
+      {"enriched", toml::table{{"exterior", name_of(exterior_conditions, s.enriched.exterior)},
+                               {"support_neighbours", s.enriched.support_neighbours},
+                               {"min_point_neighbours", s.enriched.min_point_neighbours},
+                               {"volume_radial_points", s.enriched.volume_radial_points},
+                               {"volume_polar_points", s.enriched.volume_polar_points},
+                               {"volume_azimuth_points", s.enriched.volume_azimuth_points},
+                               {"patch_radial_points", s.enriched.patch_radial_points},
+                               {"patch_angular_points", s.enriched.patch_angular_points},
+                               {"free_radial_points", s.enriched.free_radial_points},
+                               {"free_azimuth_points", s.enriched.free_azimuth_points},
+                               {"cut_polar_points", s.enriched.cut_polar_points},
+                               {"cut_azimuth_points", s.enriched.cut_azimuth_points},
+                               {"cut_multiplier_degree", s.enriched.cut_multiplier_degree}}},
       {"geometry", geometry},
       {"organ", organ},
       {"material", toml::table{{"youngs_modulus", study.material.youngs_modulus_Pa}, {"poisson_ratio", study.material.poisson_ratio}}},

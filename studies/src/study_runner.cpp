@@ -132,6 +132,14 @@ MfsSeries read_series(const std::string& path, const std::string& name, const to
   if (problem.benchmark == meshes::Benchmark::B3 || own_l == nullptr) geometry.insert("local_radius", problem.local_radius_m);
   if (problem.benchmark == meshes::Benchmark::B5) geometry.insert("contact_polar_angle", problem.contact_polar_angle_rad);
   t.insert_or_assign("geometry", geometry);
+  // B3's domain is the ball with its cut clamped: the enriched model's exterior is that domain's
+  // (a series cannot compare another exterior with it).
+  if (problem.benchmark == meshes::Benchmark::B3) {
+    if (t.at_path("enriched.exterior").node() != nullptr && t.at_path("enriched.exterior").value_or(std::string()) != "clamped")
+      throw ConfigError(path + ": mfs." + name + ".enriched.exterior: B3's cut is clamped (set by [problem])");
+    if (!t.contains("enriched")) t.insert("enriched", toml::table{});
+    t["enriched"].as_table()->insert_or_assign("exterior", "clamped");
+  }
   t.insert_or_assign("material", toml::table{{"youngs_modulus", problem.material.youngs_modulus_Pa},
                                              {"poisson_ratio", problem.material.poisson_ratio}});
   const Eigen::Vector3d& d = problem.direction;
@@ -1393,7 +1401,7 @@ ReferenceStudy read_reference(ConfigTable& reference, const std::string& key, co
 std::vector<MfsSeries> read_problem_series(const std::string& path, const toml::table& mfs_sections,
                                            const std::vector<std::string>& only, const ComparisonProblem& p) {
   std::vector<MfsSeries> list;
-  const MfsSeries defaults = read_series(path, "engine_defaults", toml::table{}, p);
+  const MfsSeries defaults = read_series(path, "engine_defaults", toml::table{}, p);  // with B3's exterior imposed
   const auto normalised = [&](MfsStudy s) {
     // Everything but the name, the node counts and the output switch: the engine's settings
     // and the problem (identical for every series of the problem).

@@ -24,6 +24,7 @@ using nlohmann::json;
 // A coarse organ surface keeps gmsh quick; the local ball is still a few hundred triangles.
 const std::string tiny_config = R"(
 study = "tiny_mfs"
+formulation = "galerkin"
 [geometry]
 benchmark = "B2"
 body_radius = "50 mm"

@@ -326,8 +326,8 @@ TEST_F(StudyFiles, DepthsUpToHalfTheLocalRadiusAreAccepted) {
 }
 
 TEST_F(StudyFiles, TheEngineDefaultSeriesIsFoundBySettingsNotByName) {
-  // "zz" has the engine's settings under an unremarkable name; "galerkin" (the default
-  // formulation's name) has one knob changed; "p" is the paper mode.
+  // "zz" has the engine's settings under an unremarkable name; "galerkin" has one knob changed;
+  // "p" is the paper mode.
   const ComparisonStudy s = read_comparison_study(write("d.toml", study_text("", R"(
 [mfs.zz.sprinkling]
 node_count = [60]
@@ -340,12 +340,11 @@ radius_factor = 2.0
   int defaults = 0;
   for (const auto& series : s.first().series) {
     SCOPED_TRACE(series.name);
-    // The engine's default formulation, spelled out, is still the default: "g" is.
-    const bool expected = series.name == "zz" || series.name == "g";
-    EXPECT_EQ(series.engine_default, expected);
+    // Galerkin is no longer the engine's default formulation (enriched is): only "zz" is.
+    EXPECT_EQ(series.engine_default, series.name == "zz");
     defaults += series.engine_default ? 1 : 0;
   }
-  EXPECT_EQ(defaults, 2);
+  EXPECT_EQ(defaults, 1);
   // Only non-default series: none is marked.
   const ComparisonStudy none = read_comparison_study(write("n.toml", replaced(study_text(), "[mfs.g]\nformulation = \"galerkin\"\n",
                                                                              "[mfs.g]\nformulation = \"collocation\"\n")));

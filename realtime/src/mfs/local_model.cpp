@@ -96,7 +96,12 @@ bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& uni
 }  // namespace
 
 std::string to_string(Formulation formulation) {
-  return formulation == Formulation::galerkin ? "galerkin" : "collocation";
+  switch (formulation) {
+    case Formulation::collocation: return "collocation";
+    case Formulation::galerkin: return "galerkin";
+    case Formulation::enriched: return "enriched";
+  }
+  return "unknown";
 }
 
 std::string to_string(ForceMethod method) {
@@ -141,6 +146,23 @@ void ForceSettings::validate() const {
 }
 
 void LocalModelSettings::validate() const {
+  if (formulation == Formulation::enriched) {
+    // The enriched model places its own nodes and quadratures; its force is the patch
+    // multiplier's resultant, so the extraction settings do not apply.
+    if (paper_mode) throw std::invalid_argument("paper_mode with formulation = enriched: the paper's model is point collocation");
+    if (sprinkling.node_count < 10 || sprinkling.node_count > 5000)
+      throw std::invalid_argument("SprinklingSettings.node_count = " + std::to_string(sprinkling.node_count) +
+                                  " must be in [10, 5000] for formulation = enriched");
+    if (!(sprinkling.local_radius_m > 0) || !std::isfinite(sprinkling.local_radius_m))
+      throw std::invalid_argument("SprinklingSettings.local_radius_m = " + std::to_string(sprinkling.local_radius_m) +
+                                  " must be finite and > 0");
+    if (!(collocation.mls.max_support_scale >= 1 && collocation.mls.max_support_scale <= 4))
+      throw std::invalid_argument("MlsSettings.max_support_scale = " + std::to_string(collocation.mls.max_support_scale) +
+                                  " must be in [1, 4]");
+    enriched.validate();
+    force.validate();
+    return;
+  }
   sprinkling.validate();
   force.validate();
   const auto finite_non_negative = [](const char* field, double value) {
@@ -183,6 +205,8 @@ LocalModelSettings paper_settings() {
 
 ForceMethod default_haptic_method(Formulation formulation, bool paper_mode) {
   if (paper_mode) return ForceMethod::paper_partition;
+  // The enriched model's patch multiplier is the contact traction: its resultant is (a).
+  if (formulation == Formulation::enriched) return ForceMethod::traction_integral;
   return formulation == Formulation::galerkin ? ForceMethod::reaction : ForceMethod::paper_partition;
 }
 
@@ -321,11 +345,74 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   return model;
 }
 
+/// The enriched branch of build_local_model: its own even cloud, boundary quadratures, the
+/// exterior stiffness (body-aware from `exterior`, else the half-space's), one KKT solve.
+LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel model, const ClampedSurface& clamped,
+                          const ExteriorStiffnessSource& exterior, std::chrono::steady_clock::time_point start) {
+  const LocalModelSettings& settings = model.settings;
+  const auto fail = [&](std::string why) {
+    model.status = std::move(why);
+    model.times.total_s = seconds_since(start);
+    return std::move(model);
+  };
+  const double length = settings.sprinkling.local_radius_m;
+  auto step = std::chrono::steady_clock::now();
+  // The MLS–MLS block is under-integrated (and so too soft) when its shape functions are finer
+  // than the volume quadrature: its angular counts grow as ∛(N/60) beyond 60 nodes.
+  EnrichedSettings quadrature_settings = settings.enriched;
+  const double finer = std::cbrt(static_cast<double>(model.cloud.size()) / 60.0);
+  if (finer > 1) {
+    quadrature_settings.volume_polar_points = static_cast<int>(std::lround(quadrature_settings.volume_polar_points * finer));
+    quadrature_settings.volume_azimuth_points = static_cast<int>(std::lround(quadrature_settings.volume_azimuth_points * finer));
+  }
+  EnrichedQuadratures quadratures;
+  PunchFrame frame;
+  std::string failure;
+  if (!enriched_quadratures(organ, model.contact, length, quadrature_settings,
+                            clamped_inside_ball(organ, model.contact, settings, clamped), quadratures, frame, failure))
+    return fail(failure);
+  model.clamped_points = static_cast<int>(quadratures.clamped.points.size());
+  EnrichedSettings enriched = settings.enriched;
+  Eigen::MatrixXd exterior_stiffness;
+  model.exterior_used = to_string(enriched.exterior);
+  if (enriched.exterior == ExteriorCondition::body_aware) {
+    const int modes = model.contact.condition == PatchCondition::bonded ? 3 : 1;
+    std::string why_not = "no organ atlas was given";
+    if (!exterior || !exterior(model.contact, length, model.material, modes, exterior_stiffness, why_not)) {
+      enriched.exterior = ExteriorCondition::half_space;
+      model.exterior_used = to_string(enriched.exterior);
+      model.exterior_note = why_not;
+    }
+  }
+  model.times.sprinkle_s += seconds_since(step);
+  step = std::chrono::steady_clock::now();
+  // Where a quadrature point's moment matrix is singular the supports may grow up to 2× there.
+  MlsSettings mls = settings.collocation.mls;
+  mls.max_support_scale = std::max(mls.max_support_scale, 2.0);
+  model.enriched = build_enriched_model(model.cloud, model.material, model.contact, quadratures, frame, enriched, mls,
+                                        exterior_stiffness.size() ? &exterior_stiffness : nullptr);
+  model.times.assembly_s = seconds_since(step);
+  if (!model.enriched.ok()) return fail(model.enriched.status);
+  const Eigen::Index n = model.enriched.unit_response.rows();
+  model.unit_response = model.enriched.unit_response;
+  model.load_response.setZero(n);
+  model.traction_map.setZero(3, n);
+  model.traction_surface_map.setZero(3, n);
+  model.reaction_map.setZero(3, n);
+  model.paper_map.setZero(3, n);
+  model.traction_available = true;
+  model.tool_stiffness_N_per_m = model.enriched.tool_stiffness_N_per_m;
+  model.times.total_s = seconds_since(start);
+  return model;
+}
+
 }  // namespace
 
 NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact,
                                const LocalModelSettings& settings) {
   SprinklingSettings sprinkling = settings.sprinkling;
+  if (settings.formulation == Formulation::enriched)
+    return sprinkle_even_nodes(organ, contact, sprinkling.node_count, sprinkling.local_radius_m, sprinkling.seed);
   if (settings.paper_mode) sprinkling.tip_node_only = true;
   // Extra collocation points mean nothing to the weak form: do not sprinkle them.
   if (settings.formulation == Formulation::galerkin) sprinkling.oversampling = 1;
@@ -333,13 +420,14 @@ NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const Too
 }
 
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const Material& material,
-                             const LocalModelSettings& settings, const ClampedSurface& clamped) {
+                             const LocalModelSettings& settings, const ClampedSurface& clamped,
+                             const ExteriorStiffnessSource& exterior) {
   material.validate();
   settings.validate();
   clamped.validate();
   // The shell depends on the tool radius as well as the settings: checked here, before any work.
   const ForceSettings& f = settings.force;
-  if (f.traction && !(f.extraction_inner_tool_radii * contact.radius_m <
+  if (settings.formulation != Formulation::enriched && f.traction && !(f.extraction_inner_tool_radii * contact.radius_m <
                       f.extraction_outer_local_radii * settings.sprinkling.local_radius_m))
     throw std::invalid_argument(
         "ForceSettings: the extraction shell is empty: inner radius extraction_inner_tool_radii × a = " +
@@ -355,6 +443,8 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   model.times.sprinkle_s = seconds_since(start);
 
   if (settings.formulation == Formulation::galerkin) return build_galerkin(organ, std::move(model), clamped, start);
+  if (settings.formulation == Formulation::enriched)
+    return build_enriched(organ, std::move(model), clamped, exterior, start);
   model.clamped_points = static_cast<int>(clamped_inside_ball(organ, contact, settings, clamped).points.size());
 
   auto step = std::chrono::steady_clock::now();
@@ -454,6 +544,18 @@ LocalSolution solve_local_model(const LocalModel& model, const Eigen::Vector3d& 
   solution.solve_s = seconds_since(start);
   start = std::chrono::steady_clock::now();
   ToolForces& f = solution.forces;
+  if (model.settings.formulation == Formulation::enriched) {
+    // The patch multiplier is the contact traction (a); the cut's balances it when the cut is
+    // clamped (b); the energy includes the exterior's (c).
+    f.haptic_N = model.tool_stiffness_N_per_m * tool_displacement_m;
+    f.traction_integral_N = f.haptic_N;
+    f.traction_surface_N = f.haptic_N;
+    f.reaction_N = -model.enriched.cut_reaction_N_per_m * tool_displacement_m;
+    f.energy_J = 0.5 * solution.parameters.dot(model.enriched.stiffness * solution.parameters);
+    if (tool_displacement_m.norm() > 0) f.energy_force_N = 2 * f.energy_J / tool_displacement_m.norm();
+    solution.force_s = seconds_since(start);
+    return solution;
+  }
   f.traction_integral_N = model.traction_map * solution.parameters;
   f.traction_surface_N = model.traction_surface_map * solution.parameters;
   f.reaction_N = model.reaction_map * solution.parameters;
@@ -477,6 +579,16 @@ bool displacement_at(const LocalModel& model, const Eigen::VectorXd& parameters,
   displacement_m.assign(points.size(), Eigen::Vector3d::Zero());
   MlsEvaluation scratch;
   bool all = true;
+  if (model.settings.formulation == Formulation::enriched) {
+    MlsSettings mls = model.settings.collocation.mls;  // as build_enriched evaluated them
+    mls.max_support_scale = std::max(mls.max_support_scale, 2.0);
+    for (std::size_t p = 0; p < points.size(); ++p)
+      all = enriched_displacement(model.cloud, model.enriched, model.contact.radius_m, model.material, mls, parameters,
+                                  points[p], scratch, displacement_m[p]) ==
+                MlsStatus::ok &&
+            all;
+    return all;
+  }
   for (std::size_t p = 0; p < points.size(); ++p)
     all = evaluate_displacement(model.cloud, parameters, points[p], model.settings.collocation.mls, scratch,
                                 displacement_m[p]) == MlsStatus::ok &&

@@ -356,4 +356,73 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
   return best;
 }
 
+NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact, int node_count,
+                              double local_radius_m, std::uint64_t seed) {
+  if (node_count < 10 || node_count > 5000)
+    throw std::invalid_argument("node_count = " + std::to_string(node_count) + " must be in [10, 5000]");
+  const double length = local_radius_m, a = contact.radius_m;
+  if (!(length > 0) || !std::isfinite(length))
+    throw std::invalid_argument("local_radius_m = " + std::to_string(length) + " must be finite and > 0");
+  if (!contact.point.allFinite() || !contact.direction.allFinite() || contact.direction.norm() < 1e-12)
+    throw std::invalid_argument("ToolContact: point and direction must be finite, direction non-zero");
+  if (!(a > 0) || !(a < 0.5 * length))
+    throw std::invalid_argument("ToolContact.radius_m = " + std::to_string(a) + " must be in (0, L/2) with L = " +
+                                std::to_string(length));
+  const geometry::SurfaceProjection hit = organ.project(contact.point);
+  if (hit.distance_m > 0.1 * a)
+    throw std::invalid_argument("ToolContact.point is not on the organ surface (distance " +
+                                std::to_string(hit.distance_m) + " m)");
+  const Eigen::Vector3d centre = hit.point, normal = hit.normal;
+  const auto [t1, t2] = tangents(normal);
+  // Spacing of N nodes in a half ball; nodes keep half a spacing off the cut and the surface
+  // (those on them are placed there).
+  const double spacing = std::cbrt(2.0 / 3.0 * pi * length * length * length / node_count);
+  const int surface_count = std::max(4, static_cast<int>(std::lround(0.25 * node_count)));
+  const int cut_count = std::max(3, static_cast<int>(std::lround(0.2 * node_count)));
+  const int inner_count = std::max(3, node_count - surface_count - cut_count);
+
+  NodeCloud cloud;
+  const auto add = [&](const Eigen::Vector3d& x, NodeKind kind, const Eigen::Vector3d& n) {
+    cloud.positions.push_back(x);
+    cloud.kinds.push_back(kind);
+    cloud.normals.push_back(n);
+    cloud.spacing.push_back(spacing);
+    cloud.radii.push_back(2.5 * spacing);
+    std::array<CollocationRow, 3> rows;
+    for (int i = 0; i < 3; ++i) rows[i].direction = Eigen::Vector3d::Unit(i);
+    cloud.rows.push_back(rows);
+  };
+  // Surface: a sunflower spiral of equal areas in the tangent plane, projected; the tip first.
+  const double golden = pi * (3.0 - std::sqrt(5.0));
+  const double phase = 2 * pi * halton(static_cast<int>(seed % 1000) + 1, 2);
+  for (int k = 0; k < surface_count; ++k) {
+    const double r = 0.97 * length * std::sqrt(static_cast<double>(k) / surface_count);
+    const double phi = phase + golden * k;
+    const geometry::SurfaceProjection p = organ.project(centre + r * (std::cos(phi) * t1 + std::sin(phi) * t2));
+    if ((p.point - centre).norm() > length - 0.5 * spacing) continue;
+    add(p.point, r < a ? NodeKind::tool_patch : NodeKind::free_surface, p.normal);
+  }
+  // Cut: a Fibonacci lattice on the sphere, twice the count (about half of it lies in a
+  // locally flat organ), kept half a spacing inside the organ surface.
+  Eigen::Matrix3d rotation;
+  rotation << t1, t2, normal;
+  for (const Eigen::Vector3d& d : fibonacci_sphere(2 * cut_count, rotation)) {
+    const Eigen::Vector3d x = centre + length * d;
+    if (organ.signed_distance(x) < -0.5 * spacing) add(x, NodeKind::cut, d);
+  }
+  // Inside: Halton points in the ball, uniform in volume, off the surface and the cut.
+  const int start = 1 + static_cast<int>(seed % 997) * 64;
+  for (int k = 0, kept = 0; kept < inner_count && k < 8 * inner_count; ++k) {
+    const double rho = (length - 0.5 * spacing) * std::cbrt(halton(start + k, 2));
+    const double z = 1 - 2 * halton(start + k, 3), phi = 2 * pi * halton(start + k, 5);
+    const double s = std::sqrt(std::max(0.0, 1 - z * z));
+    const Eigen::Vector3d x = centre + rho * (rotation * Eigen::Vector3d(s * std::cos(phi), s * std::sin(phi), z));
+    if (organ.signed_distance(x) < -0.5 * spacing) {
+      add(x, NodeKind::interior, Eigen::Vector3d::Zero());
+      ++kept;
+    }
+  }
+  return cloud;
+}
+
 }  // namespace touchstone::realtime::mfs

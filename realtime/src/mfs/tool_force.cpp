@@ -1,5 +1,7 @@
 #include "touchstone/realtime/mfs/tool_force.hpp"
 
+#include "touchstone/realtime/mfs/quadrature_rules.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -10,7 +12,26 @@ namespace {
 
 constexpr double pi = 3.14159265358979323846;
 
-/// Gauss–Legendre nodes and weights on [0, 1] (Golub–Welsch would be overkill: Newton on P_n).
+/// The contact frame: the projected contact point, the outward normal there and two tangents.
+struct ContactFrame {
+  Eigen::Vector3d centre, normal, t1, t2;
+};
+
+ContactFrame contact_frame(const geometry::TriangleSurface& organ, const ToolContact& contact) {
+  const geometry::SurfaceProjection p = organ.project(contact.point);
+  const Eigen::Vector3d helper = std::abs(p.normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = p.normal.cross(helper).normalized();
+  return {p.point, p.normal, t1, p.normal.cross(t1)};
+}
+
+/// Unit direction at polar angle θ from the inward normal −n and azimuth φ.
+Eigen::Vector3d direction(const ContactFrame& f, double theta, double phi) {
+  return -std::cos(theta) * f.normal + std::sin(theta) * (std::cos(phi) * f.t1 + std::sin(phi) * f.t2);
+}
+
+}  // namespace
+
+// Newton on P_n from Chebyshev-like starts (Golub–Welsch would be overkill at these sizes).
 void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
   x.resize(n);
   w.resize(n);
@@ -32,46 +53,6 @@ void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
     w[i] = 1.0 / ((1 - z * z) * dp * dp);  // 2/((1−z²)P'²) on [−1,1], halved for [0,1]
   }
 }
-
-/// The contact frame: the projected contact point, the outward normal there and two tangents.
-struct ContactFrame {
-  Eigen::Vector3d centre, normal, t1, t2;
-};
-
-ContactFrame contact_frame(const geometry::TriangleSurface& organ, const ToolContact& contact) {
-  const geometry::SurfaceProjection p = organ.project(contact.point);
-  const Eigen::Vector3d helper = std::abs(p.normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d t1 = p.normal.cross(helper).normalized();
-  return {p.point, p.normal, t1, p.normal.cross(t1)};
-}
-
-/// Unit direction at polar angle θ from the inward normal −n and azimuth φ.
-Eigen::Vector3d direction(const ContactFrame& f, double theta, double phi) {
-  return -std::cos(theta) * f.normal + std::sin(theta) * (std::cos(phi) * f.t1 + std::sin(phi) * f.t2);
-}
-
-/// The largest t ∈ [0, t_max] such that inside(s) holds for all s ∈ (0, t], when inside holds
-/// near 0: marching in `steps`, then bisection to ~1e-9 of t_max. 0 if it fails at once.
-template <class Inside>
-double first_exit(Inside inside, double t_max, int steps = 64) {
-  double low = 0;
-  for (int k = 1; k <= steps; ++k) {
-    const double t = t_max * k / steps;
-    if (inside(t)) {
-      low = t;
-      continue;
-    }
-    double high = t;
-    for (int i = 0; i < 40 && high - low > 1e-9 * t_max; ++i) {
-      const double mid = 0.5 * (low + high);
-      (inside(mid) ? low : high) = mid;
-    }
-    return low;
-  }
-  return t_max;
-}
-
-}  // namespace
 
 PatchQuadrature cut_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
                                int polar_points, int azimuth_points, int marching_steps) {

@@ -96,6 +96,7 @@ TEST(ClampedLocalModel, NearTheBaseTheBaseIsHeldAndJoinsTheReaction) {
   const Hemisphere& h = hemisphere();
   const ToolContact contact = contact_at(80 * pi / 180);
   LocalModelSettings settings;
+  settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 100;
   settings.sprinkling.local_radius_m = local_radius_m;
   const Material material{10.0e3, 0.45};
@@ -128,6 +129,7 @@ TEST(ClampedLocalModel, NearTheBaseTheBaseIsHeldAndJoinsTheReaction) {
 TEST(ClampedLocalModel, AtThePoleTheBaseChangesNothing) {
   const Hemisphere& h = hemisphere();
   LocalModelSettings settings;
+  settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 35;
   const Material material{10.0e3, 0.45};
   const LocalModel plain = build_local_model(h.organ, contact_at(0), material, settings);

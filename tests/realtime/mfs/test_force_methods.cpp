@@ -41,6 +41,7 @@ TEST(ForceMethods, AllFourApproachTheReferenceAsNodesAreAdded) {
   std::vector<double> worst, spread_N;
   for (const int n : {100, 200, 400}) {
     LocalModelSettings settings;
+    settings.formulation = Formulation::galerkin;
     settings.sprinkling.node_count = n;
     settings.sprinkling.local_radius_m = 5 * tool_radius_m;
     const LocalModel model = build_local_model(hemisphere(), contact, material, settings);

@@ -25,6 +25,7 @@ using testing::pole_contact;
 LocalModelSettings galerkin_settings(int node_count) {
   LocalModelSettings s;
   s.formulation = Formulation::galerkin;
+  s.formulation = Formulation::galerkin;
   s.sprinkling.node_count = node_count;
   s.sprinkling.oversampling = 1;
   s.force.haptic_method = ForceMethod::reaction;

@@ -75,6 +75,7 @@ TEST(ExtractionQuadrature, TheDomainFormOfAConstantStressIsItsBoundaryIntegral) 
   // An affine displacement u = G x is reproduced exactly by the MLS (parameters u_J = G x_J), so
   // σ is constant and the traction map must give σ Σ_q ω_q ∇w_q for the model's own shell.
   LocalModelSettings settings;
+  settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 35;
   settings.force.energy = false;
   const Material material{10.0e3, 0.45};
@@ -102,6 +103,7 @@ TEST(ExtractionQuadrature, TheDomainFormOfAConstantStressIsItsBoundaryIntegral) 
 
 TEST(ExtractionQuadrature, AnEmptyShellIsRefusedBeforeTheBuildNamingBothFactors) {
   LocalModelSettings settings;
+  settings.formulation = Formulation::galerkin;
   settings.force.extraction_outer_local_radii = 0.2;  // 0.2 L = 2.5 mm < 1.5 a = 3.75 mm
   try {
     build_local_model(hemisphere(), pole_contact(), Material{}, settings);

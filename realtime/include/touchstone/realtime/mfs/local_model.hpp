@@ -11,6 +11,7 @@
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/clamped_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 #include "touchstone/realtime/mfs/galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
@@ -20,6 +21,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 namespace touchstone::realtime::mfs {
@@ -68,20 +70,26 @@ struct ForceSettings {
 /// How the equations are written on the nodes.
 enum class Formulation : std::uint8_t {
   collocation,  ///< strong form at points (the paper; square or least squares): fast, not convergent on the punch
-  galerkin,     ///< weak form with penalty or Nitsche constraints (De & Bathe's MFS): converges from above (default)
+  galerkin,     ///< weak form with penalty or Nitsche constraints (De & Bathe's MFS): converges from above, slowly
+  /// weak form enriched with the punch's singular fields, multipliers on the patch and the cut,
+  /// and an exterior condition (enriched_galerkin.hpp): the default
+  enriched,
 };
 
 std::string to_string(Formulation formulation);
 
 struct LocalModelSettings {
-  /// Galerkin by default: the formulation that converges (measured on B3 and on the uniform
-  /// pressure disk, tests/realtime/mfs); collocation is the paper's, faster to build.
-  Formulation formulation = Formulation::galerkin;
+  /// The enriched weak form by default: the punch's own singular fields carry the rim, so a few
+  /// dozen nodes suffice; Galerkin and collocation (the paper's) stay selectable.
+  Formulation formulation = Formulation::enriched;
   SprinklingSettings sprinkling;
   CollocationSettings collocation;
   /// Galerkin only: penalty; its MLS settings are collocation.mls. K is dense and factorised by
   /// LDLT (the solver settings apply to collocation).
   GalerkinSettings galerkin;
+  /// Enriched only: its exterior condition, supports and quadratures (its MLS settings are
+  /// collocation.mls; sprinkling.node_count, local_radius_m and seed place its nodes).
+  EnrichedSettings enriched;
   SolverSettings solver;
   ForceSettings force;
   /// The paper's model (B4, paper eqs. 7–9 literally): one tool-tip node whose nodal parameters
@@ -109,6 +117,13 @@ struct BuildTimes {
   double diagnostics_s = 0;
 };
 
+/// Where the body-aware exterior stiffness comes from: given the contact, L and the material,
+/// fills K_ext [N/m] (m × m in the enrichment's mode order) or says why it cannot (e.g. no organ
+/// atlas sample near the contact). An organ atlas provides one.
+using ExteriorStiffnessSource =
+    std::function<bool(const ToolContact& contact, double local_radius_m, const Material& material, int modes,
+                       Eigen::MatrixXd& exterior_stiffness_N_per_m, std::string& why_not)>;
+
 struct LocalModel {
   Material material;
   LocalModelSettings settings;
@@ -117,6 +132,10 @@ struct LocalModel {
   CollocationSystem system;   ///< collocation only
   CollocationSolver solver;   ///< collocation only
   GalerkinSystem galerkin;    ///< Galerkin only
+  EnrichedModel enriched;     ///< enriched only; unit_response rows are then 3N nodal values and the m amplitudes
+  /// Enriched only: the exterior the model used (body_aware falls back to half_space when its
+  /// source has no answer for this contact) and, then, why.
+  std::string exterior_used, exterior_note;
   /// Nodal parameters for U_tool = e_x, e_y, e_z (3N × 3) and for the loads alone (3N).
   Eigen::MatrixXd unit_response;
   Eigen::VectorXd load_response;
@@ -154,7 +173,7 @@ NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const Too
 /// (naming the field); numerical failures end in `status`.
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact,
                              const Material& material, const LocalModelSettings& settings,
-                             const ClampedSurface& clamped = {});
+                             const ClampedSurface& clamped = {}, const ExteriorStiffnessSource& exterior = {});
 
 /// Forces on the tissue from the tool [N] (the tool feels the opposite).
 struct ToolForces {

@@ -1,0 +1,151 @@
+#pragma once
+/// @file
+/// The enriched local model: MLS Galerkin plus the punch's own singular fields with free
+/// amplitudes (the singular-function method: Fix, Gulati & Wakoff 1973; Olson, Georgiou &
+/// Schultz 1991),
+///
+///   u_h = Σ_I N_I(x) u_I + Σ_m c_m ψ_m(x),
+///
+/// ψ_m the half-space punch fields of punch_field.hpp (normal; for a bonded tool also the two
+/// tangential modes) in a frame on the rim plane of the actual patch. Smooth MLS functions
+/// cannot carry the √ρ displacement and ρ^(−½) traction at the punch rim; the ψ_m carry them
+/// exactly, and the MLS part is left with a smooth remainder that a few dozen nodes resolve.
+///
+/// The patch and the outer boundary are held by Lagrange multipliers, so the tool force is part
+/// of the solution (the patch multiplier's resultant), not a post-processed traction:
+/// - patch: λ = Σ_k λ_k T_k(r/a) / √(a² − r²) (k = 0, 2, 4, and T₁ cos φ, T₁ sin φ), the
+///   normal component only for a frictionless tool, all three for a bonded one;
+/// - cut (and any clamped surface inside the ball): polynomials of degree ≤ 2 per component
+///   plus σ(ψ_m)n, which the multiplier space must contain for the half-space solution to be
+///   reproduced exactly.
+///
+/// The outer condition on the cut sphere (ExteriorCondition):
+/// - clamped: u_h = 0, the paper's (the identical-domain benchmark);
+/// - half_space: the exterior is the ψ part continued into the half-space: the MLS part vanishes
+///   on the cut and the exterior energy ½ cᵀ K_ext c is added, K_ext,mn = −∮_cut ψ_m·σ(ψ_n)n dA
+///   (n out of the ball). Exact for a half-space;
+/// - body_aware: as half_space with K_ext from the actual organ (computed offline by the FEM,
+///   read from an organ atlas).
+///
+/// Every ψ term is a boundary integral, because div σ(ψ) = 0: ∫_Ω ε(v):σ(ψ) dV = ∮_∂Ω v·σ(ψ)n dA
+/// over the patch, the free surface, the cut and any clamped part. Only the MLS–MLS block needs
+/// a volume quadrature, and since the MLS part carries a small share of the energy a few hundred
+/// points suffice.
+
+#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/realtime/mfs/mls_shape_functions.hpp"
+#include "touchstone/realtime/mfs/node_cloud.hpp"
+#include "touchstone/realtime/mfs/node_sprinkling.hpp"
+#include "touchstone/realtime/mfs/punch_field.hpp"
+#include "touchstone/realtime/mfs/tool_force.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace touchstone::realtime::mfs {
+
+/// What holds the local domain's cut sphere |x − c| = L.
+enum class ExteriorCondition : std::uint8_t {
+  clamped,     ///< u_h = 0 on the cut (the paper's local model)
+  half_space,  ///< the exterior is the punch field continued into a half-space
+  body_aware,  ///< the exterior stiffness of the actual organ, from an organ atlas (default)
+};
+
+std::string to_string(ExteriorCondition exterior);
+/// "clamped" | "half_space" | "body_aware"; throws std::invalid_argument listing them.
+ExteriorCondition exterior_condition_from_string(const std::string& name);
+
+struct EnrichedSettings {
+  ExteriorCondition exterior = ExteriorCondition::body_aware;
+  /// Support radius r_J = the distance to the node's support_neighbours-th nearest node.
+  int support_neighbours = 12;
+  /// Then each quadrature point must see this many nodes: the supports of its nearest nodes are
+  /// grown just enough (locally; a global growth would couple far nodes and lock).
+  int min_point_neighbours = 14;
+  /// Quadrature of the MLS–MLS block (rays from the contact point, graded toward the tool).
+  int volume_radial_points = 8, volume_polar_points = 8, volume_azimuth_points = 16;
+  /// Boundary quadratures of every ψ term and of the multipliers.
+  int patch_radial_points = 6, patch_angular_points = 12;
+  int free_radial_points = 6, free_azimuth_points = 16;
+  int cut_polar_points = 8, cut_azimuth_points = 16;
+  /// Degree of the polynomial multipliers on the cut (per component, plus σ(ψ_m)n); −1 picks it
+  /// from N (cut_multiplier_degree()).
+  int cut_multiplier_degree = -1;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// The boundary pieces of the local domain Ω = organ ∩ ball(c, L), with per-point data the
+/// multipliers need. Patch and free surface are parametrised by the distance r from the tool
+/// axis, so the rim r = a is exactly where ψ is singular.
+struct EnrichedQuadratures {
+  PatchQuadrature volume, patch, free_surface, cut, clamped;
+  std::vector<double> patch_radius_m, patch_azimuth_rad;  ///< r and φ of each patch point in the punch frame
+};
+
+/// The assembled and solved enriched model for the three unit tool translations.
+struct EnrichedModel {
+  PunchFrame frame;
+  std::vector<PunchMode> modes;  ///< the enrichment fields (normal; + tangential for bonded)
+  ExteriorCondition exterior = ExteriorCondition::clamped;
+  /// K_ext [N/m] in mode order: the exterior energy ½ cᵀ K_ext c (zero for clamped).
+  Eigen::MatrixXd exterior_stiffness_N_per_m;
+  /// The response to U_tool = e_x, e_y, e_z: nodal parameters then amplitudes ((3N + m) × 3),
+  /// and the tool force on the tissue (the patch multiplier's resultant) [N/m].
+  Eigen::MatrixXd unit_response;
+  Eigen::Matrix3d tool_stiffness_N_per_m = Eigen::Matrix3d::Zero();
+  /// The resultant of the cut's (and clamped surfaces') multipliers per unit U_tool [N/m]:
+  /// balances the tool force when the cut is clamped.
+  Eigen::Matrix3d cut_reaction_N_per_m = Eigen::Matrix3d::Zero();
+  /// The full stiffness over (u_I, c_m) including K_ext: the energy is ½ xᵀ K x.
+  Eigen::MatrixXd stiffness;
+  /// Diagnostics: counts, conditioning, and what the enrichment carries.
+  int volume_points = 0, boundary_points = 0, mls_evaluations = 0, multipliers = 0;
+  double min_rcond = 1, max_support_scale = 1;
+  double kkt_relative_residual = 0;
+  std::string status = "ok";
+  bool ok() const { return status == "ok"; }
+};
+
+/// The cut multipliers' polynomial degree for a cloud of node_count nodes: the setting, or for
+/// −1: 1 below 40 nodes, 2 up to 120, 3 beyond.
+int cut_multiplier_degree(const EnrichedSettings& settings, std::size_t node_count);
+
+/// Support radii for the enriched model: r_J = distance to the k-th nearest node, then grown
+/// locally so that every point of `points` sees at least min_neighbours nodes.
+std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& nodes,
+                                           const std::vector<const PatchQuadrature*>& points,
+                                           int support_neighbours, int min_neighbours);
+
+/// The quadratures of the enriched model on `organ` (patch and free surface found along the
+/// tool axis; the cut sphere and the volume as in tool_force.hpp; clamped parts inside the
+/// ball from `clamped`, which may be empty). Also sets the punch frame: origin at the centre of
+/// the patch's rim circle, e₃ = the push direction. Fails (status) when the tool axis misses the
+/// organ near the contact, e.g. at an organ edge.
+bool enriched_quadratures(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                          const EnrichedSettings& settings, const PatchQuadrature& clamped, EnrichedQuadratures& out,
+                          PunchFrame& frame, std::string& failure);
+
+/// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
+/// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (m × m in
+/// mode order, m = 1 frictionless, 3 bonded) and ignored otherwise.
+EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, const ToolContact& contact,
+                                   const EnrichedQuadratures& quadratures, const PunchFrame& frame,
+                                   const EnrichedSettings& settings, const MlsSettings& mls,
+                                   const Eigen::MatrixXd* exterior_stiffness_N_per_m = nullptr);
+
+/// The half-space exterior stiffness −∮_cut ψ_m·σ(ψ_n)n dA [N/m] on a cut quadrature (n out
+/// of the ball), symmetrised.
+Eigen::MatrixXd half_space_exterior_stiffness(const std::vector<PunchMode>& modes, const PunchFrame& frame,
+                                              double radius_m, const Material& material, const PatchQuadrature& cut);
+
+/// u_h at x from the parameters (3N nodal values, then the m amplitudes). Returns the MLS status.
+MlsStatus enriched_displacement(const NodeCloud& cloud, const EnrichedModel& model, double radius_m,
+                                const Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
+                                const Eigen::Vector3d& x, MlsEvaluation& scratch, Eigen::Vector3d& u) noexcept;
+
+}  // namespace touchstone::realtime::mfs

@@ -1,0 +1,606 @@
+#include "touchstone/realtime/mfs/enriched_galerkin.hpp"
+
+#include "touchstone/realtime/mfs/quadrature_rules.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+/// The tool axis at the contact: c on the surface, d the push direction, t₁, t₂ ⟂ d.
+struct AxisFrame {
+  Eigen::Vector3d centre, push, t1, t2;
+  Eigen::Vector3d radial(double phi) const { return std::cos(phi) * t1 + std::sin(phi) * t2; }
+};
+
+/// The organ surface point at distance r from the tool axis in azimuth φ: the perpendicular
+/// position is kept and the axial one taken from the closest surface point, repeated until it
+/// settles (a contraction for surfaces at less than 45° to the tool face). False when it does
+/// not settle or lands off the line (the axis misses the organ there: an organ edge).
+bool surface_along_axis(const geometry::TriangleSurface& organ, const AxisFrame& f, double r, double phi,
+                        double tolerance_m, geometry::SurfaceProjection& out) {
+  const Eigen::Vector3d start = f.centre + r * f.radial(phi);
+  Eigen::Vector3d x = start;
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    out = organ.project(x);
+    const Eigen::Vector3d next = start + f.push * f.push.dot(out.point - f.centre);
+    const double moved = (next - x).norm();
+    x = next;
+    if (moved < tolerance_m) {
+      const Eigen::Vector3d offset = out.point - start;
+      return (offset - f.push * f.push.dot(offset)).norm() < 100 * tolerance_m;
+    }
+  }
+  return false;
+}
+
+/// Rays from the contact point, cut where they leave the organ or reach L; Gauss–Legendre in
+/// t with ρ = a (e^{κt} − 1) (graded toward the tool like the node cloud); the polar range per
+/// azimuth ends where a short step along the ray already leaves the organ.
+PatchQuadrature enriched_volume_quadrature(const geometry::TriangleSurface& organ, const Eigen::Vector3d& centre,
+                                           const Eigen::Vector3d& normal, double tool_radius_m, double length,
+                                           const EnrichedSettings& s) {
+  const Eigen::Vector3d helper = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = normal.cross(helper).normalized(), t2 = normal.cross(t1);
+  const auto direction = [&](double theta, double phi) {
+    return Eigen::Vector3d(-std::cos(theta) * normal + std::sin(theta) * (std::cos(phi) * t1 + std::sin(phi) * t2));
+  };
+  const auto inside = [&](const Eigen::Vector3d& x) { return organ.signed_distance(x) < 0; };
+  std::vector<double> xr, wr, xt, wt;
+  gauss_legendre(s.volume_radial_points, xr, wr);
+  gauss_legendre(s.volume_polar_points, xt, wt);
+  const double probe = 0.25 * std::min(tool_radius_m, length);
+  PatchQuadrature q;
+  for (int k = 0; k < s.volume_azimuth_points; ++k) {
+    const double phi = 2 * pi * (k + 0.5) / s.volume_azimuth_points;
+    const double theta_max = first_exit([&](double theta) { return inside(centre + probe * direction(theta, phi)); }, pi, 32);
+    if (theta_max <= 0) continue;
+    for (int j = 0; j < s.volume_polar_points; ++j) {
+      const double theta = theta_max * xt[j];
+      const Eigen::Vector3d d = direction(theta, phi);
+      const double reach = first_exit([&](double rho) { return inside(centre + rho * d); }, length, 32);
+      if (reach <= 0) continue;
+      const double scale = tool_radius_m;
+      const double kappa = std::log1p(reach / scale);
+      for (int i = 0; i < s.volume_radial_points; ++i) {
+        const double rho = scale * std::expm1(kappa * xr[i]);
+        const double jacobian = kappa * (rho + scale);
+        q.points.push_back(centre + rho * d);
+        q.normals.push_back(Eigen::Vector3d::Zero());
+        q.weights.push_back(rho * rho * jacobian * wr[i] * std::sin(theta) * theta_max * wt[j] * 2 * pi /
+                            s.volume_azimuth_points);
+      }
+    }
+  }
+  return q;
+}
+
+/// Voigt elasticity matrix (xx yy zz xy yz zx) of the material.
+Eigen::Matrix<double, 6, 6> elasticity_matrix(const Material& material) {
+  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  Eigen::Matrix<double, 6, 6> d = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) d(i, j) = lambda;
+    d(i, i) += 2 * mu;
+    d(i + 3, i + 3) = mu;
+  }
+  return d;
+}
+
+/// A surface on which the multipliers hold u (or its MLS part) at zero: its quadrature, and
+/// whether the constraint includes the enrichment (clamped) or only the MLS part (an exterior).
+struct ConstraintSurface {
+  const PatchQuadrature* quadrature;
+  bool includes_enrichment;
+};
+
+/// Values of the raw multiplier functions of a constraint surface at x (3 × count): the
+/// monomials of ξ = (x − c)/L up to `degree` per component, then σ(ψ_m)n / scale.
+void raw_multipliers(const Eigen::Vector3d& xi, int degree, const std::vector<Eigen::Vector3d>& traction_modes,
+                     Eigen::Matrix<double, 3, Eigen::Dynamic>& out) {
+  std::vector<double> monomials;
+  for (int i = 0; i <= degree; ++i)
+    for (int j = 0; i + j <= degree; ++j)
+      for (int k = 0; i + j + k <= degree; ++k)
+        monomials.push_back(std::pow(xi.x(), i) * std::pow(xi.y(), j) * std::pow(xi.z(), k));
+  const Eigen::Index count = static_cast<Eigen::Index>(monomials.size());
+  out.setZero(3, 3 * count + static_cast<Eigen::Index>(traction_modes.size()));
+  for (Eigen::Index k = 0; k < count; ++k)
+    for (int i = 0; i < 3; ++i) out(i, 3 * k + i) = monomials[static_cast<std::size_t>(k)];
+  for (std::size_t m = 0; m < traction_modes.size(); ++m) out.col(3 * count + static_cast<Eigen::Index>(m)) = traction_modes[m];
+}
+
+/// Chebyshev polynomial T_k(t).
+double chebyshev(int k, double t) { return std::cos(k * std::acos(std::clamp(t, -1.0, 1.0))); }
+
+}  // namespace
+
+int cut_multiplier_degree(const EnrichedSettings& settings, std::size_t node_count) {
+  if (settings.cut_multiplier_degree >= 0) return settings.cut_multiplier_degree;
+  // Few nodes cannot satisfy many constraints without locking; many nodes would use a poor
+  // multiplier space to slip along the cut.
+  return node_count < 40 ? 1 : node_count <= 120 ? 2 : 3;
+}
+
+std::string to_string(ExteriorCondition exterior) {
+  switch (exterior) {
+    case ExteriorCondition::clamped: return "clamped";
+    case ExteriorCondition::half_space: return "half_space";
+    case ExteriorCondition::body_aware: return "body_aware";
+  }
+  return "unknown";
+}
+
+ExteriorCondition exterior_condition_from_string(const std::string& name) {
+  if (name == "clamped") return ExteriorCondition::clamped;
+  if (name == "half_space") return ExteriorCondition::half_space;
+  if (name == "body_aware") return ExteriorCondition::body_aware;
+  throw std::invalid_argument("exterior = '" + name + "': expected clamped, half_space or body_aware");
+}
+
+void EnrichedSettings::validate() const {
+  const auto check = [](const char* field, int value, int low, int high) {
+    if (value < low || value > high)
+      throw std::invalid_argument(std::string("EnrichedSettings.") + field + " = " + std::to_string(value) +
+                                  " must be in [" + std::to_string(low) + ", " + std::to_string(high) + "]");
+  };
+  check("support_neighbours", support_neighbours, 4, 200);
+  check("min_point_neighbours", min_point_neighbours, 10, 200);
+  check("volume_radial_points", volume_radial_points, 2, 64);
+  check("volume_polar_points", volume_polar_points, 2, 64);
+  check("volume_azimuth_points", volume_azimuth_points, 4, 256);
+  check("patch_radial_points", patch_radial_points, 2, 64);
+  check("patch_angular_points", patch_angular_points, 4, 256);
+  check("free_radial_points", free_radial_points, 2, 64);
+  check("free_azimuth_points", free_azimuth_points, 4, 256);
+  check("cut_polar_points", cut_polar_points, 2, 64);
+  check("cut_azimuth_points", cut_azimuth_points, 4, 256);
+  check("cut_multiplier_degree", cut_multiplier_degree, -1, 4);
+}
+
+std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& nodes,
+                                           const std::vector<const PatchQuadrature*>& points, int support_neighbours,
+                                           int min_neighbours) {
+  const std::size_t n = nodes.size();
+  std::vector<double> radii(n, 0.0), distance(n);
+  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(support_neighbours), n - 1);
+  for (std::size_t j = 0; j < n; ++j) {
+    for (std::size_t i = 0; i < n; ++i) distance[i] = (nodes[i] - nodes[j]).norm();
+    std::nth_element(distance.begin(), distance.begin() + static_cast<std::ptrdiff_t>(k), distance.end());
+    radii[j] = distance[k];
+  }
+  // Grow locally: a point seeing too few nodes reaches its nearest ones, each made to cover it
+  // with a margin (W vanishes at the support's edge, so a node just inside adds nothing).
+  const std::size_t need = std::min<std::size_t>(static_cast<std::size_t>(min_neighbours), n);
+  std::vector<std::pair<double, std::size_t>> nearest(n);
+  for (const PatchQuadrature* set : points)
+    for (const Eigen::Vector3d& x : set->points) {
+      std::size_t seen = 0;
+      for (std::size_t j = 0; j < n; ++j) {
+        nearest[j] = {(nodes[j] - x).norm(), j};
+        if (nearest[j].first < radii[j]) ++seen;
+      }
+      if (seen >= need) continue;
+      std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(need - 1), nearest.end());
+      for (std::size_t i = 0; i < need; ++i)
+        radii[nearest[i].second] = std::max(radii[nearest[i].second], 1.2 * nearest[i].first);
+    }
+  return radii;
+}
+
+bool enriched_quadratures(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+                          const EnrichedSettings& settings, const PatchQuadrature& clamped, EnrichedQuadratures& out,
+                          PunchFrame& frame, std::string& failure) {
+  out = EnrichedQuadratures{};
+  const geometry::SurfaceProjection hit = organ.project(contact.point);
+  const double a = contact.radius_m, length = local_radius_m, tolerance = 1e-9 * length;
+  AxisFrame f;
+  f.centre = hit.point;
+  f.push = contact.direction.normalized();
+  const PunchFrame axes = PunchFrame::along(f.centre, f.push);
+  f.t1 = axes.axes.col(0);
+  f.t2 = axes.axes.col(1);
+
+  // The patch: r = a sin(πx/2) absorbs the (a² − r²)^(−½) of the contact traction; the rim
+  // circle's centre, the punch frame's origin, is the mean axial position of the rim.
+  std::vector<double> x, w;
+  gauss_legendre(settings.patch_radial_points, x, w);
+  const int angular = settings.patch_angular_points;
+  geometry::SurfaceProjection p;
+  double rim_axial = 0;
+  for (int k = 0; k < angular; ++k) {
+    const double phi = 2 * pi * (k + 0.5) / angular;
+    if (!surface_along_axis(organ, f, a, phi, tolerance, p)) {
+      failure = "the tool axis misses the organ at the patch rim (contact at an organ edge?)";
+      return false;
+    }
+    rim_axial += f.push.dot(p.point - f.centre) / angular;
+  }
+  frame = axes;
+  frame.origin = f.centre + rim_axial * f.push;
+  for (int i = 0; i < settings.patch_radial_points; ++i) {
+    const double t = 0.5 * pi * x[i], r = a * std::sin(t);
+    const double radial_weight = w[i] * 0.5 * pi * a * a * std::sin(t) * std::cos(t);
+    for (int k = 0; k < angular; ++k) {
+      const double phi = 2 * pi * (k + 0.5 * (i % 2)) / angular;
+      if (!surface_along_axis(organ, f, r, phi, tolerance, p)) {
+        failure = "the tool axis misses the organ under the patch (contact at an organ edge?)";
+        return false;
+      }
+      out.patch.points.push_back(p.point);
+      out.patch.normals.push_back(p.normal);
+      // Area on the surface = area across the axis / |n·d|.
+      out.patch.weights.push_back(radial_weight * 2 * pi / angular / std::max(0.2, std::abs(p.normal.dot(f.push))));
+      out.patch_radius_m.push_back(r);
+      out.patch_azimuth_rad.push_back(phi);
+    }
+  }
+
+  // The free surface a < r < r_edge(φ), where the surface leaves the ball; r = a + (r_edge − a)t²
+  // absorbs the ρ^(−½) of σ(ψ)n at the rim of a curved surface.
+  gauss_legendre(settings.free_radial_points, x, w);
+  for (int k = 0; k < settings.free_azimuth_points; ++k) {
+    const double phi = 2 * pi * (k + 0.5) / settings.free_azimuth_points;
+    // Regula falsi (Illinois) on g(r) = |X(r) − c| − L over [a, L].
+    const auto g = [&](double r, bool& ok) {
+      ok = surface_along_axis(organ, f, r, phi, tolerance, p);
+      return (p.point - f.centre).norm() - length;
+    };
+    bool ok_low = true, ok_high = true;
+    double low = a, high = length, g_low = g(low, ok_low), g_high = g(high, ok_high);
+    if (!ok_low || !(g_low < 0)) {
+      failure = "the free surface around the patch leaves the local ball at once (L too close to a?)";
+      return false;
+    }
+    if (!ok_high) {
+      // The axis leaves the organ before L (an edge): march inward to the last good radius.
+      double good = low;
+      for (int step = 1; step <= 32; ++step) {
+        bool ok = true;
+        const double r = low + (length - low) * step / 32.0;
+        const double value = g(r, ok);
+        if (!ok) break;
+        good = r;
+        if (value >= 0) break;
+      }
+      bool ok = true;
+      high = good;
+      g_high = g(high, ok);
+      if (!(g_high >= 0)) {
+        failure = "the organ surface folds away from the tool axis inside the local ball (contact near an organ edge)";
+        return false;
+      }
+    }
+    int side = 0;
+    for (int iteration = 0; iteration < 60 && high - low > 1e-10 * length; ++iteration) {
+      const double r = (low * g_high - high * g_low) / (g_high - g_low);
+      bool ok = true;
+      const double value = g(r, ok);
+      if (!ok) {
+        failure = "the tool axis misses the organ inside the local ball";
+        return false;
+      }
+      if (value < 0) {
+        low = r, g_low = value;
+        if (side == -1) g_high *= 0.5;
+        side = -1;
+      } else {
+        high = r, g_high = value;
+        if (side == 1) g_low *= 0.5;
+        side = 1;
+      }
+      if (std::abs(value) < 1e-12 * length) break;
+    }
+    const double edge = 0.5 * (low + high), span = edge - a;
+    for (int i = 0; i < settings.free_radial_points; ++i) {
+      const double r = a + span * x[i] * x[i];
+      if (!surface_along_axis(organ, f, r, phi, tolerance, p)) {
+        failure = "the tool axis misses the organ inside the local ball";
+        return false;
+      }
+      out.free_surface.points.push_back(p.point);
+      out.free_surface.normals.push_back(p.normal);
+      out.free_surface.weights.push_back(w[i] * 2 * span * x[i] * r * 2 * pi / settings.free_azimuth_points /
+                                         std::max(0.2, std::abs(p.normal.dot(f.push))));
+    }
+  }
+
+  out.cut = cut_quadrature(organ, contact, length, settings.cut_polar_points, settings.cut_azimuth_points);
+  out.volume = enriched_volume_quadrature(organ, hit.point, hit.normal, a, length, settings);
+  out.clamped = clamped;
+  if (out.volume.points.empty() || out.cut.points.empty()) {
+    failure = "the local ball holds no organ volume or no cut surface";
+    return false;
+  }
+  return true;
+}
+
+Eigen::MatrixXd half_space_exterior_stiffness(const std::vector<PunchMode>& modes, const PunchFrame& frame,
+                                              double radius_m, const Material& material, const PatchQuadrature& cut) {
+  const Eigen::Index m = static_cast<Eigen::Index>(modes.size());
+  Eigen::MatrixXd k = Eigen::MatrixXd::Zero(m, m);
+  std::vector<PunchFieldSample> samples(modes.size());
+  for (std::size_t q = 0; q < cut.points.size(); ++q) {
+    for (std::size_t i = 0; i < modes.size(); ++i)
+      samples[i] = punch_field(modes[i], frame, radius_m, material, cut.points[q]);
+    for (Eigen::Index i = 0; i < m; ++i)
+      for (Eigen::Index j = 0; j < m; ++j)
+        k(i, j) -= cut.weights[q] * samples[i].displacement.dot(samples[j].stress_Pa_per_m * cut.normals[q]);
+  }
+  return 0.5 * (k + k.transpose());
+}
+
+EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, const ToolContact& contact,
+                                   const EnrichedQuadratures& quad, const PunchFrame& frame,
+                                   const EnrichedSettings& settings, const MlsSettings& mls,
+                                   const Eigen::MatrixXd* exterior_stiffness_N_per_m) {
+  EnrichedModel model;
+  model.frame = frame;
+  model.exterior = settings.exterior;
+  model.modes = {PunchMode::normal};
+  const bool bonded = contact.condition == PatchCondition::bonded;
+  if (bonded) model.modes = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
+  const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
+  const Eigen::Index m = static_cast<Eigen::Index>(model.modes.size());
+  const Eigen::Index n = 3 * n_nodes + m;
+  const double a = contact.radius_m;
+  const auto fail = [&](std::string why) {
+    model.status = std::move(why);
+    return model;
+  };
+  if (settings.exterior == ExteriorCondition::body_aware) {
+    if (!exterior_stiffness_N_per_m || exterior_stiffness_N_per_m->rows() != m || exterior_stiffness_N_per_m->cols() != m)
+      return fail("body_aware exterior without an exterior stiffness of the right size");
+  }
+
+  cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
+                                       settings.support_neighbours, settings.min_point_neighbours);
+  MlsEvaluation eval;
+  static const std::vector<int> all_nodes;
+  const auto evaluate = [&](const Eigen::Vector3d& x, Derivatives what) {
+    evaluate_mls(x, cloud.positions, cloud.radii, all_nodes, mls, what, eval);
+    ++model.mls_evaluations;
+    if (eval.status != MlsStatus::ok) return false;
+    model.min_rcond = std::min(model.min_rcond, eval.rcond);
+    model.max_support_scale = std::max(model.max_support_scale, eval.support_scale);
+    return true;
+  };
+
+  // MLS–MLS: ∫ Bᵀ D B dV on the volume points.
+  Eigen::MatrixXd& K = model.stiffness;
+  K.setZero(n, n);
+  const Eigen::Matrix<double, 6, 6> D = elasticity_matrix(material);
+  Eigen::MatrixXd strain, product;
+  for (std::size_t q = 0; q < quad.volume.points.size(); ++q) {
+    if (!evaluate(quad.volume.points[q], Derivatives::gradients))
+      return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes" : eval.status == MlsStatus::singular_moments ? "singular moment matrix" : "non-finite input") +
+                  ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " + std::to_string(q));
+    const int k = static_cast<int>(eval.neighbours.size());
+    strain.setZero(6, 3 * k);
+    for (int b = 0; b < k; ++b) {
+      const Eigen::Vector3d& g = eval.gradient[b];
+      strain(0, 3 * b) = g[0];
+      strain(1, 3 * b + 1) = g[1];
+      strain(2, 3 * b + 2) = g[2];
+      strain(3, 3 * b) = g[1], strain(3, 3 * b + 1) = g[0];
+      strain(4, 3 * b + 1) = g[2], strain(4, 3 * b + 2) = g[1];
+      strain(5, 3 * b) = g[2], strain(5, 3 * b + 2) = g[0];
+    }
+    product.noalias() = quad.volume.weights[q] * strain.transpose() * (D * strain);
+    for (int b = 0; b < k; ++b)
+      for (int c = 0; c < k; ++c)
+        K.block<3, 3>(3 * eval.neighbours[b], 3 * eval.neighbours[c]) += product.block<3, 3>(3 * b, 3 * c);
+  }
+  model.volume_points = static_cast<int>(quad.volume.points.size());
+
+  // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
+  // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n.
+  struct BoundaryPoint {
+    std::vector<int> nodes;
+    std::vector<double> values;
+    std::vector<PunchFieldSample> psi;
+    Eigen::Vector3d x, normal;
+    double weight;
+  };
+  const auto sample_set = [&](const PatchQuadrature& set, const char* name, std::vector<BoundaryPoint>& points) {
+    points.resize(set.points.size());
+    for (std::size_t q = 0; q < set.points.size(); ++q) {
+      if (!evaluate(set.points[q], Derivatives::values))
+        throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(q));
+      BoundaryPoint& b = points[q];
+      b.nodes = eval.neighbours;
+      b.values = eval.value;
+      b.x = set.points[q];
+      b.normal = set.normals[q];
+      b.weight = set.weights[q];
+      b.psi.resize(model.modes.size());
+      for (std::size_t i = 0; i < model.modes.size(); ++i) b.psi[i] = punch_field(model.modes[i], frame, a, material, b.x);
+    }
+  };
+  std::vector<BoundaryPoint> patch, free_surface, cut, clamped;
+  try {
+    sample_set(quad.patch, "patch", patch);
+    sample_set(quad.free_surface, "free-surface", free_surface);
+    sample_set(quad.cut, "cut", cut);
+    sample_set(quad.clamped, "clamped-surface", clamped);
+  } catch (const std::runtime_error& e) {
+    return fail(e.what());
+  }
+  model.boundary_points = static_cast<int>(patch.size() + free_surface.size() + cut.size() + clamped.size());
+  for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
+    for (const BoundaryPoint& b : *set)
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const Eigen::Vector3d traction = b.psi[i].stress_Pa_per_m * b.normal;
+        for (std::size_t k = 0; k < b.nodes.size(); ++k)
+          K.block<3, 1>(3 * b.nodes[k], 3 * n_nodes + i) += b.weight * b.values[k] * traction;
+        for (Eigen::Index j = 0; j < m; ++j) K(3 * n_nodes + j, 3 * n_nodes + i) += b.weight * b.psi[j].displacement.dot(traction);
+      }
+  K.bottomLeftCorner(m, 3 * n_nodes) = K.topRightCorner(3 * n_nodes, m).transpose();
+  const Eigen::MatrixXd psi_block = K.bottomRightCorner(m, m);
+  K.bottomRightCorner(m, m) = 0.5 * (psi_block + psi_block.transpose());
+
+  // The exterior energy.
+  model.exterior_stiffness_N_per_m.setZero(m, m);
+  if (settings.exterior == ExteriorCondition::half_space)
+    model.exterior_stiffness_N_per_m = half_space_exterior_stiffness(model.modes, frame, a, material, quad.cut);
+  else if (settings.exterior == ExteriorCondition::body_aware)
+    model.exterior_stiffness_N_per_m = *exterior_stiffness_N_per_m;
+  K.bottomRightCorner(m, m) += model.exterior_stiffness_N_per_m;
+
+  // Constraint rows B (and their right-hand sides per unit U_tool, G) and each row's resultant
+  // per unit multiplier (3-vector), to turn multipliers into forces.
+  std::vector<Eigen::RowVectorXd> rows;
+  std::vector<Eigen::RowVector3d> rhs;
+  std::vector<Eigen::Vector3d> resultant;
+  std::vector<bool> on_patch;
+  // Patch: T_k(r/a)/√(1 − (r/a)²), made dimensionless; the normal component (frictionless) or
+  // all three (bonded).
+  const Eigen::Vector3d d = contact.direction.normalized();
+  const int patch_functions = 5;
+  const auto patch_function = [&](int k, std::size_t q) {
+    const double t = quad.patch_radius_m[q] / a, phi = quad.patch_azimuth_rad[q];
+    const double inverse_root = 1 / std::sqrt(std::max(1 - t * t, 1e-300));
+    switch (k) {
+      case 0: return chebyshev(0, t) * inverse_root;
+      case 1: return chebyshev(2, t) * inverse_root;
+      case 2: return chebyshev(4, t) * inverse_root;
+      case 3: return t * std::cos(phi) * inverse_root;
+      default: return t * std::sin(phi) * inverse_root;
+    }
+  };
+  const int components = bonded ? 3 : 1;
+  for (int k = 0; k < patch_functions; ++k)
+    for (int c = 0; c < components; ++c) {
+      const Eigen::Vector3d e = bonded ? Eigen::Vector3d::Unit(c) : d;
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(n);
+      double integral = 0;
+      for (std::size_t q = 0; q < patch.size(); ++q) {
+        const BoundaryPoint& b = patch[q];
+        const double mu = patch_function(k, q) * b.weight;
+        integral += mu;
+        for (std::size_t j = 0; j < b.nodes.size(); ++j) row.segment<3>(3 * b.nodes[j]) += mu * b.values[j] * e.transpose();
+        for (Eigen::Index i = 0; i < m; ++i) row(3 * n_nodes + i) += mu * e.dot(b.psi[i].displacement);
+      }
+      rows.push_back(row);
+      rhs.push_back(integral * e.transpose());
+      resultant.push_back(integral * e);
+      on_patch.push_back(true);
+    }
+
+  // Cut and clamped surfaces: orthonormal (in L2 of the surface) combinations of the raw
+  // functions, so that dependent ones (1 and |ξ|² on a sphere) drop out.
+  const ConstraintSurface surfaces[] = {{&quad.cut, settings.exterior == ExteriorCondition::clamped},
+                                        {&quad.clamped, true}};
+  const std::vector<BoundaryPoint>* samples[] = {&cut, &clamped};
+  Eigen::Matrix<double, 3, Eigen::Dynamic> raw;
+  const Eigen::Vector3d centre = quad.cut.points.empty() ? frame.origin : contact.point;
+  const double length = quad.cut.points.empty() ? a : (quad.cut.points.front() - contact.point).norm();
+  for (int s = 0; s < 2; ++s) {
+    const std::vector<BoundaryPoint>& points = *samples[s];
+    if (points.empty()) continue;
+    // Scale σ(ψ)n to O(1) like the polynomials.
+    const int degree = cut_multiplier_degree(settings, cloud.size());
+    std::vector<double> scale(model.modes.size(), 0.0);
+    for (const BoundaryPoint& b : points)
+      for (std::size_t i = 0; i < model.modes.size(); ++i)
+        scale[i] = std::max(scale[i], (b.psi[i].stress_Pa_per_m * b.normal).norm());
+    std::vector<Eigen::Vector3d> modes(model.modes.size());
+    const auto raw_at = [&](const BoundaryPoint& b) {
+      for (std::size_t i = 0; i < model.modes.size(); ++i)
+        modes[i] = scale[i] > 0 ? Eigen::Vector3d(b.psi[i].stress_Pa_per_m * b.normal / scale[i]) : Eigen::Vector3d::Zero();
+      raw_multipliers((b.x - centre) / length, degree, modes, raw);
+    };
+    const Eigen::Index count = 3 * (degree + 1) * (degree + 2) * (degree + 3) / 6 + m;
+    Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(count, count);
+    for (const BoundaryPoint& b : points) {
+      raw_at(b);
+      gram.noalias() += b.weight * raw.transpose() * raw;
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
+    const double largest = eigen.eigenvalues().maxCoeff();
+    std::vector<Eigen::Index> kept;
+    for (Eigen::Index j = 0; j < count; ++j)
+      if (eigen.eigenvalues()[j] > 1e-10 * largest) kept.push_back(j);
+    Eigen::MatrixXd transform(count, static_cast<Eigen::Index>(kept.size()));
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      transform.col(static_cast<Eigen::Index>(j)) = eigen.eigenvectors().col(kept[j]) / std::sqrt(eigen.eigenvalues()[kept[j]]);
+    const Eigen::Index first = static_cast<Eigen::Index>(rows.size()), added = transform.cols();
+    for (Eigen::Index j = 0; j < added; ++j) {
+      rows.push_back(Eigen::RowVectorXd::Zero(n));
+      rhs.push_back(Eigen::RowVector3d::Zero());
+      resultant.push_back(Eigen::Vector3d::Zero());
+      on_patch.push_back(false);
+    }
+    Eigen::Matrix<double, 3, Eigen::Dynamic> basis;
+    for (const BoundaryPoint& b : points) {
+      raw_at(b);
+      basis.noalias() = raw * transform;  // 3 × added
+      for (Eigen::Index j = 0; j < added; ++j) {
+        const Eigen::Vector3d mu = b.weight * basis.col(j);
+        Eigen::RowVectorXd& row = rows[static_cast<std::size_t>(first + j)];
+        for (std::size_t k = 0; k < b.nodes.size(); ++k) row.segment<3>(3 * b.nodes[k]) += b.values[k] * mu.transpose();
+        if (surfaces[s].includes_enrichment)
+          for (Eigen::Index i = 0; i < m; ++i) row(3 * n_nodes + i) += mu.dot(b.psi[i].displacement);
+        resultant[static_cast<std::size_t>(first + j)] += mu;
+      }
+    }
+  }
+
+  // KKT [K Bᵀ; B 0] [x; y] = [0; G U], multipliers λ = −y. Rows are scaled to K's magnitude.
+  const Eigen::Index c = static_cast<Eigen::Index>(rows.size());
+  model.multipliers = static_cast<int>(c);
+  const double k_scale = K.diagonal().head(3 * n_nodes).cwiseAbs().maxCoeff();
+  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + c, n + c);
+  Eigen::MatrixXd right = Eigen::MatrixXd::Zero(n + c, 3);
+  std::vector<double> row_scale(static_cast<std::size_t>(c));
+  kkt.topLeftCorner(n, n) = K;
+  for (Eigen::Index r = 0; r < c; ++r) {
+    const double norm = rows[static_cast<std::size_t>(r)].norm();
+    const double s = norm > 0 ? k_scale / norm : 1.0;
+    row_scale[static_cast<std::size_t>(r)] = s;
+    kkt.block(n + r, 0, 1, n) = s * rows[static_cast<std::size_t>(r)];
+    kkt.block(0, n + r, n, 1) = s * rows[static_cast<std::size_t>(r)].transpose();
+    right.row(n + r) = s * rhs[static_cast<std::size_t>(r)];
+  }
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(kkt);
+  const Eigen::MatrixXd solution = lu.solve(right);
+  model.kkt_relative_residual = (kkt * solution - right).norm() / right.norm();
+  if (!solution.allFinite() || !(model.kkt_relative_residual < 1e-8))
+    return fail("the enriched system is singular or too ill-conditioned: relative residual " +
+                std::to_string(model.kkt_relative_residual));
+  model.unit_response = solution.topRows(n);
+  for (Eigen::Index r = 0; r < c; ++r) {
+    const Eigen::RowVector3d lambda = -row_scale[static_cast<std::size_t>(r)] * solution.row(n + r);
+    const Eigen::Matrix3d force = resultant[static_cast<std::size_t>(r)] * lambda;
+    (on_patch[static_cast<std::size_t>(r)] ? model.tool_stiffness_N_per_m : model.cut_reaction_N_per_m) += force;
+  }
+  if (!model.tool_stiffness_N_per_m.allFinite()) return fail("the tool stiffness is not finite");
+  return model;
+}
+
+MlsStatus enriched_displacement(const NodeCloud& cloud, const EnrichedModel& model, double radius_m,
+                                const Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
+                                const Eigen::Vector3d& x, MlsEvaluation& scratch, Eigen::Vector3d& u) noexcept {
+  static const std::vector<int> all_nodes;
+  u.setZero();
+  evaluate_mls(x, cloud.positions, cloud.radii, all_nodes, mls, Derivatives::values, scratch);
+  if (scratch.status != MlsStatus::ok) return scratch.status;
+  for (std::size_t k = 0; k < scratch.neighbours.size(); ++k)
+    u += scratch.value[k] * parameters.segment<3>(3 * scratch.neighbours[k]);
+  const Eigen::Index base = 3 * static_cast<Eigen::Index>(cloud.size());
+  for (std::size_t i = 0; i < model.modes.size(); ++i)
+    u += parameters[base + static_cast<Eigen::Index>(i)] *
+         punch_field(model.modes[i], model.frame, radius_m, material, x).displacement;
+  return MlsStatus::ok;
+}
+
+}  // namespace touchstone::realtime::mfs

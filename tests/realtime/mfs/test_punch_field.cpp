@@ -1,0 +1,214 @@
+// The punch fields against the closed-form oracle tests/oracles/sneddon_field.py (values below
+// printed by it for a = G = 1, ν = 0.45, unit depth / unit tangential displacement), their
+// boundary conditions, equilibrium and resultants, and the frame transformation.
+#include "touchstone/realtime/mfs/punch_field.hpp"
+#include "touchstone/realtime/mfs/quadrature_rules.hpp"
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+struct OracleSample {
+  double x[3];
+  double u_normal[3];
+  double stress_normal[4];  // σ_rr, σ_θθ, σ_zz, σ_rz
+  double u_tangential[3];
+};
+
+// python3 -c "import sneddon_field as s; ..." with a = G = 1, ν = 0.45, δ = 1, Q = 8Ga/(2 − ν).
+const OracleSample oracle[] = {
+    {{0.3, 0.2, 0.5}, {0.0234757710019587, 0.0156505140013058, 0.924057500306908},
+     {-0.646610420482463, -0.682646574788676, -1.37467630797889, 0.00769717057457332},
+     {0.60894442897317, 0.00167211313608023, 0.0265576955754939}},
+    {{1.5, -0.7, 0.2}, {0.0186295377639473, -0.00869378428984209, 0.417035404908959},
+     {-0.202071606513217, -0.0602296056254952, -0.0118099756403983, -0.0506215059917506},
+     {0.460589301672427, -0.067247704812082, 0.0514909821642514}},
+    {{0.9, 0.1, 1e-06}, {-0.0365712183707103, -0.0040634687078567, 0.999999863588437},
+     {-2.64696188656882, -2.53667750902421, -2.72823126120087, 1.37251026719401e-05},
+     {0.999997996342427, -4.29510362866671e-09, 0.0259537678856688}},
+    {{2.5, 1.0, 3.0}, {0.0577310905396983, 0.0230924362158793, 0.236726003724257},
+     {-0.060033355812559, -0.00176305572619017, -0.0927024680813082, -0.0751333561752414},
+     {0.142596595112003, 0.0134667681743947, 0.0479306388806419}},
+    {{-0.4, 0.6, -0.02}, {0.0133840344634865, -0.0200760516952298, 1.00169373563079},
+     {-1.59287613872684, -1.56726726543704, -1.67430834033263, -0.0496113136839385},
+     {1.02424038049811, -9.4140844034222e-05, -0.00989202065699222}},
+    {{0.05, 0.02, 0.8}, {0.00600770962182017, 0.00240308384872807, 0.852346245476695},
+     {-0.394247269254054, -0.39458383203068, -1.25693270873761, -0.0104619901048725},
+     {0.470092489024511, 4.46983772876341e-05, 0.00551542725616645}},
+};
+
+/// ν = 0.45 and G = 1 Pa.
+Material unit_material() {
+  Material m;
+  m.poisson_ratio = 0.45;
+  m.youngs_modulus_Pa = 2 * (1 + m.poisson_ratio);
+  return m;
+}
+
+TEST(PunchField, NormalModeMatchesTheOracle) {
+  const Material material = unit_material();
+  for (const OracleSample& s : oracle) {
+    const Eigen::Vector3d x(s.x[0], s.x[1], s.x[2]);
+    const PunchFieldSample f = punch_field(PunchMode::normal, PunchFrame{}, 1.0, material, x);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(f.displacement[i], s.u_normal[i], 1e-12) << "u_" << i << " at " << x.transpose();
+    const double r = std::hypot(x.x(), x.y());
+    const Eigen::Vector3d er(x.x() / r, x.y() / r, 0), et(-x.y() / r, x.x() / r, 0), ez = Eigen::Vector3d::UnitZ();
+    const Eigen::Matrix3d& t = f.stress_Pa_per_m;
+    const double expected[4] = {er.dot(t * er), et.dot(t * et), ez.dot(t * ez), er.dot(t * ez)};
+    for (int i = 0; i < 4; ++i)
+      EXPECT_NEAR(expected[i], s.stress_normal[i], 1e-10 * (1 + std::abs(s.stress_normal[i]))) << "stress " << i;
+  }
+}
+
+TEST(PunchField, TangentialModeMatchesTheOracle) {
+  const Material material = unit_material();
+  for (const OracleSample& s : oracle) {
+    const Eigen::Vector3d x(s.x[0], s.x[1], s.x[2]);
+    const PunchFieldSample f = punch_field(PunchMode::tangential_1, PunchFrame{}, 1.0, material, x);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(f.displacement[i], s.u_tangential[i], 1e-12) << "u_" << i << " at " << x.transpose();
+  }
+}
+
+TEST(PunchField, NearTheAxisTheSeriesContinueTheClosedForms) {
+  const Material material = unit_material();
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1}) {
+    const PunchFieldSample on = punch_field(mode, PunchFrame{}, 1.0, material, {2e-4, 1e-4, 0.4});
+    const PunchFieldSample off = punch_field(mode, PunchFrame{}, 1.0, material, {2e-3, 1e-3, 0.4});
+    EXPECT_LT((on.displacement - off.displacement).norm(), 1e-3 * off.displacement.norm());
+    EXPECT_LT((on.stress_Pa_per_m - off.stress_Pa_per_m).norm(), 1e-2 * off.stress_Pa_per_m.norm());
+    EXPECT_TRUE(punch_field(mode, PunchFrame{}, 1.0, material, {0, 0, 0.4}).stress_Pa_per_m.allFinite());
+  }
+}
+
+/// ∫_disk σ(ψ) e_z dA by Gauss–Legendre in t with r = sin t (the rim's (1 − r²)^(−½) absorbed).
+Eigen::Vector3d disk_traction_resultant(PunchMode mode, const Material& material) {
+  std::vector<double> x, w;
+  gauss_legendre(24, x, w);
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double t = 0.5 * pi * x[i], r = std::sin(t), weight = w[i] * 0.5 * pi * r * std::cos(t);
+    for (int k = 0; k < 64; ++k) {
+      const double phi = 2 * pi * (k + 0.5) / 64;
+      const Eigen::Vector3d p(r * std::cos(phi), r * std::sin(phi), 1e-9);
+      total += weight * (2 * pi / 64) * punch_field(mode, PunchFrame{}, 1.0, material, p).stress_Pa_per_m.col(2);
+    }
+  }
+  return total;
+}
+
+TEST(PunchField, ResultantsAreTheHalfSpaceStiffnesses) {
+  const Material material = unit_material();
+  // The tissue pulls the punch back: σ·e_z on the face = −(force on the tissue).
+  const Eigen::Vector3d normal = disk_traction_resultant(PunchMode::normal, material);
+  EXPECT_NEAR(-normal.z() / punch_half_space_stiffness_N_per_m(PunchMode::normal, 1.0, material), 1.0, 1e-6);
+  const Eigen::Vector3d tangential = disk_traction_resultant(PunchMode::tangential_1, material);
+  EXPECT_NEAR(-tangential.x() / punch_half_space_stiffness_N_per_m(PunchMode::tangential_1, 1.0, material), 1.0, 1e-4);
+  EXPECT_LT(std::abs(tangential.y()), 1e-6);
+}
+
+TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
+  const Material material = unit_material();
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2})
+    for (const double r : {1.2, 2.0, 4.0}) {
+      const PunchFieldSample f = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.0});
+      const double scale = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.5}).stress_Pa_per_m.norm();
+      EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * scale) << "mode " << int(mode) << " r = " << r;
+    }
+}
+
+TEST(PunchField, StressesAreInEquilibrium) {
+  // div σ = 0 by central differences of the returned stress.
+  const Material material = unit_material();
+  const double h = 1e-5;
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1})
+    for (const Eigen::Vector3d x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
+      Eigen::Vector3d divergence = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(j);
+        divergence += (punch_field(mode, PunchFrame{}, 1.0, material, x + e).stress_Pa_per_m.col(j) -
+                       punch_field(mode, PunchFrame{}, 1.0, material, x - e).stress_Pa_per_m.col(j)) /
+                      (2 * h);
+      }
+      EXPECT_LT(divergence.norm(), 1e-4 * punch_field(mode, PunchFrame{}, 1.0, material, x).stress_Pa_per_m.norm())
+          << "mode " << int(mode) << " at " << x.transpose();
+    }
+}
+
+/// The enriched model integrates every ψ term on the boundary: ∫_V σ(ψ_m):ε(ψ_n) dV =
+/// ∮_∂V ψ_n·σ(ψ_m)n dA, because div σ(ψ) = 0. Checked on a box away from the rim by tensor
+/// Gauss rules (the integrands are smooth there).
+TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
+  const Material material = unit_material();
+  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const Eigen::Vector3d low(0.4, -0.6, 0.8), high(1.7, 0.5, 2.0);
+  std::vector<double> x, w;
+  gauss_legendre(16, x, w);
+  const auto strain_of = [&](const Eigen::Matrix3d& stress) {
+    return Eigen::Matrix3d((stress - lambda / (3 * lambda + 2 * mu) * stress.trace() * Eigen::Matrix3d::Identity()) / (2 * mu));
+  };
+  const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
+  Eigen::Matrix3d volume = Eigen::Matrix3d::Zero(), boundary = Eigen::Matrix3d::Zero();
+  const Eigen::Vector3d size = high - low;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    for (std::size_t j = 0; j < x.size(); ++j)
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        const Eigen::Vector3d p = low + size.cwiseProduct(Eigen::Vector3d(x[i], x[j], x[k]));
+        const double weight = w[i] * w[j] * w[k] * size.prod();
+        PunchFieldSample f[3];
+        for (int m = 0; m < 3; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
+        for (int m = 0; m < 3; ++m)
+          for (int n = 0; n < 3; ++n) volume(m, n) += weight * (f[m].stress_Pa_per_m.cwiseProduct(strain_of(f[n].stress_Pa_per_m))).sum();
+      }
+  for (int axis = 0; axis < 3; ++axis)
+    for (const int side : {-1, 1}) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const Eigen::Vector3d normal = side * Eigen::Vector3d::Unit(axis);
+      for (std::size_t i = 0; i < x.size(); ++i)
+        for (std::size_t j = 0; j < x.size(); ++j) {
+          Eigen::Vector3d p = low;
+          p[axis] = side > 0 ? high[axis] : low[axis];
+          p[u] += size[u] * x[i];
+          p[v] += size[v] * x[j];
+          const double weight = w[i] * w[j] * size[u] * size[v];
+          PunchFieldSample f[3];
+          for (int m = 0; m < 3; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
+          for (int m = 0; m < 3; ++m)
+            for (int n = 0; n < 3; ++n) boundary(m, n) += weight * f[n].displacement.dot(f[m].stress_Pa_per_m * normal);
+        }
+    }
+  EXPECT_NEAR(boundary(0, 0) / volume(0, 0), 1.0, 1e-6);  // ψ_normal, closed-form stresses
+  for (int m = 0; m < 3; ++m)
+    for (int n = 0; n < 3; ++n)  // the tangential modes' stresses are finite differences
+      EXPECT_NEAR(boundary(m, n), volume(m, n), 1e-5 * volume.diagonal().maxCoeff()) << m << n;
+}
+
+TEST(PunchField, AFrameRotatesTheField) {
+  const Material material = unit_material();
+  const Eigen::Vector3d origin(0.1, -0.2, 0.3), direction = Eigen::Vector3d(0.3, -0.2, -1.0).normalized();
+  const PunchFrame frame = PunchFrame::along(origin, direction);
+  EXPECT_NEAR((frame.axes.transpose() * frame.axes - Eigen::Matrix3d::Identity()).norm(), 0, 1e-14);
+  EXPECT_NEAR(frame.axes.determinant(), 1, 1e-14);
+  const Eigen::Vector3d local(0.4, 0.7, 0.5), x = origin + frame.axes * local;
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2}) {
+    const PunchFieldSample global = punch_field(mode, frame, 1.0, material, x);
+    const PunchFieldSample reference = punch_field(mode, PunchFrame{}, 1.0, material, local);
+    EXPECT_LT((frame.axes.transpose() * global.displacement - reference.displacement).norm(), 1e-12);
+    EXPECT_LT((frame.axes.transpose() * global.stress_Pa_per_m * frame.axes - reference.stress_Pa_per_m).norm(), 1e-9);
+  }
+  // tangential_2 is tangential_1 turned by 90° about e₃.
+  const PunchFieldSample t2 = punch_field(PunchMode::tangential_2, PunchFrame{}, 1.0, material, {-0.7, 0.4, 0.5});
+  const PunchFieldSample t1 = punch_field(PunchMode::tangential_1, PunchFrame{}, 1.0, material, {0.4, 0.7, 0.5});
+  EXPECT_NEAR(t2.displacement.x(), -t1.displacement.y(), 1e-14);
+  EXPECT_NEAR(t2.displacement.y(), t1.displacement.x(), 1e-14);
+  EXPECT_NEAR(t2.displacement.z(), t1.displacement.z(), 1e-14);
+}
+
+}  // namespace
+}  // namespace touchstone::realtime::mfs
