@@ -1,5 +1,7 @@
 #include "touchstone/realtime/mfs/punch_field.hpp"
 
+#include <Eigen/Geometry>  // Vector3d::cross in PunchFrame::along
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
