@@ -777,7 +777,11 @@ void MeshParameters::validate() const {
     reject("tool_radius_m", tool_radius_m,
            "must be < body_radius_m / 2 = " + text_of(body_radius_m / 2));
   }
-  if (edge_size_m > tool_radius_m) {
+  // An exterior mesh has no patch edge to resolve; its size on the cut sphere must resolve that.
+  if (exterior_of_local_ball && edge_size_m > local_radius_m / 2) {
+    reject("edge_size_m", edge_size_m, "must be <= local_radius_m / 2 = " + text_of(local_radius_m / 2));
+  }
+  if (!exterior_of_local_ball && edge_size_m > tool_radius_m) {
     reject("edge_size_m", edge_size_m, "must be <= tool_radius_m = " + text_of(tool_radius_m));
   }
   if (max_size_m < edge_size_m) {
