@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -63,6 +64,30 @@ TEST(OrganAtlasHalfSpace, ClosedFormConvergesAndHasThePunchSymmetry) {
   realtime::mfs::Material stiffer = m;
   stiffer.youngs_modulus_Pa *= 3;
   EXPECT_NEAR(half_space_exterior_stiffness_N_per_m(a, l, stiffer)(0, 0), 3 * k(0, 0), 1e-12 * k(0, 0));
+}
+
+// The shipped atlas studies read (every key known and valid); a misspelt key is an error naming
+// the file and the key; angles take units.
+TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
+  for (const char* name : {"atlas_hemisphere.toml", "atlas_b1.toml"}) {
+    ConfigTable config = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/" + name);
+    const OrganAtlasStudy study = read_organ_atlas_study(config);
+    EXPECT_EQ(study.modes, AtlasModes::all) << name;
+    EXPECT_EQ(study.refinements, (std::vector<int>{0, 1, 2})) << name;
+    EXPECT_DOUBLE_EQ(study.geometry.tool_radius_m, a) << name;
+    EXPECT_DOUBLE_EQ(study.geometry.local_radius_m, l) << name;
+  }
+  ConfigTable hemisphere = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/atlas_hemisphere.toml");
+  EXPECT_NEAR(read_organ_atlas_study(hemisphere).polar_angles_rad.at(2), 30 * 3.14159265358979323846 / 180, 1e-15);
+  ConfigTable typo = ConfigTable::from_string("[atlas]\npolar_angle = [\"10 deg\"]\n", "typo.toml");
+  try {
+    read_organ_atlas_study(typo);
+    FAIL() << "an unknown key was accepted";
+  } catch (const ConfigError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("typo.toml"), std::string::npos) << message;
+    EXPECT_NE(message.find("atlas.polar_angle"), std::string::npos) << message;
+  }
 }
 
 std::string work_directory(const std::string& name) {
