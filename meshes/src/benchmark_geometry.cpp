@@ -112,6 +112,7 @@ struct Shape {
   Point patch_axis{0, 0, 1};   ///< n: unit direction from the origin to the patch centre
   double patch_height = 0;     ///< n·x on the patch circle: sqrt(R² − a²) on spheres, 0 for B1
   Point pole{0, 0, 0};         ///< (0, 0, R): centre of the B3 cut ball
+  Point contact{0, 0, 0};      ///< c: centre of the cut ball of an exterior mesh
   double tolerance = 0;        ///< absolute distance tolerance for "lies on" tests [m]
 };
 
@@ -130,6 +131,7 @@ Shape make_shape(const MeshParameters& p) {
     shape.patch_height = std::sqrt(p.body_radius_m * p.body_radius_m -
                                    p.tool_radius_m * p.tool_radius_m);
     shape.pole = {0.0, 0.0, p.body_radius_m};
+    shape.contact = {p.body_radius_m * shape.patch_axis[0], 0.0, p.body_radius_m * shape.patch_axis[2]};
   }
   return shape;
 }
@@ -211,6 +213,13 @@ class ScriptedModel {
     std::vector<gmsh::vectorpair> out_map;
     gmsh::model::occ::intersect(objects, tools, out, out_map);
     record_boolean("BooleanIntersection", objects, tools);
+    return out;
+  }
+  gmsh::vectorpair cut(const gmsh::vectorpair& objects, const gmsh::vectorpair& tools) {
+    gmsh::vectorpair out;
+    std::vector<gmsh::vectorpair> out_map;
+    gmsh::model::occ::cut(objects, tools, out, out_map);
+    record_boolean("BooleanDifference", objects, tools);
     return out;
   }
   gmsh::vectorpair fragment(const gmsh::vectorpair& objects, const gmsh::vectorpair& tools) {
@@ -297,6 +306,11 @@ void build_solid(const Shape& shape, ScriptedModel& model) {
     case Benchmark::B1: {
       const double w = p.body_radius_m;
       const int cylinder = model.add_cylinder(0, 0, -w, 0, 0, w, w);
+      if (p.exterior_of_local_ball) {
+        const int ball = model.add_sphere(0, 0, 0, p.local_radius_m, -pi / 2, pi / 2);
+        volumes_of(model.cut({{3, cylinder}}, {{3, ball}}));
+        break;
+      }
       const int circle = model.add_circle(0, 0, 0, p.tool_radius_m);
       model.fragment({{3, cylinder}}, {{1, circle}});
       break;
@@ -321,6 +335,17 @@ void build_solid(const Shape& shape, ScriptedModel& model) {
         // sideways it failed on some sizes.
         const int ball = model.add_sphere(0, 0, r, p.local_radius_m, -pi / 2, pi / 2);
         body = volumes_of(model.intersect(body, {{3, ball}}));
+      }
+      if (p.exterior_of_local_ball) {
+        // The ball is built around the pole with its axis along z and turned with the contact,
+        // so its south pole, the deepest point of the cut, is an interior point of the cut face
+        // (as for B3) and its north pole and seam lie outside the body where they are cut away.
+        const int ball = model.add_sphere(0, 0, r, p.local_radius_m, -pi / 2, pi / 2);
+        if (p.benchmark == Benchmark::B5 && p.contact_polar_angle_rad != 0) {
+          model.rotate({{3, ball}}, {0, 0, 0}, {0, 1, 0}, p.contact_polar_angle_rad);
+        }
+        volumes_of(model.cut(body, {{3, ball}}));
+        break;
       }
       const int circle = model.add_circle(0, 0, shape.patch_height, p.tool_radius_m);
       if (p.benchmark == Benchmark::B5 && p.contact_polar_angle_rad != 0) {
@@ -379,6 +404,10 @@ Classified classify(const Shape& shape) {
         const double w = p.body_radius_m;
         if (all_of_points(points, on_plane(2, -w))) {
           group = boundary_tags::base;
+        } else if (p.exterior_of_local_ball && all_of_points(points, on_sphere(shape.contact, p.local_radius_m))) {
+          group = boundary_tags::cut;
+        } else if (p.exterior_of_local_ball && all_of_points(points, on_plane(2, 0.0))) {
+          group = boundary_tags::free;
         } else if (all_of_points(points, on_plane(2, 0.0))) {
           const auto inside_patch = [&](const Point& x) {
             return std::hypot(x[0], x[1]) <= p.tool_radius_m + tol;
@@ -397,6 +426,10 @@ Classified classify(const Shape& shape) {
       case Benchmark::B5: {
         if (all_of_points(points, on_plane(2, 0.0))) {
           group = boundary_tags::base;
+        } else if (p.exterior_of_local_ball && all_of_points(points, on_sphere(shape.contact, p.local_radius_m))) {
+          group = boundary_tags::cut;
+        } else if (p.exterior_of_local_ball && all_of_points(points, on_sphere(origin, p.body_radius_m))) {
+          group = boundary_tags::free;
         } else if (all_of_points(points, on_sphere(origin, p.body_radius_m))) {
           const auto inside_patch = [&](const Point& x) {
             return dot(shape.patch_axis, x) >= shape.patch_height - tol;
@@ -418,7 +451,10 @@ Classified classify(const Shape& shape) {
     result.surfaces[group].push_back(tag);
   }
 
-  if (p.benchmark != Benchmark::Box) {
+  if (p.exterior_of_local_ball && result.surfaces.count(boundary_tags::cut) == 0) {
+    throw std::runtime_error("no boundary surface was recognised as the cut sphere");
+  }
+  if (p.benchmark != Benchmark::Box && !p.exterior_of_local_ball) {
     if (result.surfaces.count(boundary_tags::tool_patch) == 0) {
       throw std::runtime_error("no boundary surface was recognised as the tool patch");
     }
@@ -468,8 +504,21 @@ void add_physical_groups(const Classified& classified, ScriptedModel& model) {
                            group_name(boundary_tags::tissue));
 }
 
+/// growth · a · g(d/a) for the distance expression d: g(t) = t for β = 1 (linear grading); for
+/// β < 1, g(t) = t^β up to t₀ = power_grading_extent (harder grading where the r^(1/2)
+/// singularity lives) and its tangent line beyond, so that large domains (B1) are not filled
+/// with small elements.
+std::string graded_size(const MeshParameters& p, const std::string& d) {
+  const std::string t = "(" + d + " / " + number(p.tool_radius_m) + ")";
+  const double t0 = p.power_grading_extent, beta = p.size_exponent;
+  return beta == 1.0 ? number(p.size_growth) + " * " + d
+                     : number(p.size_growth * p.tool_radius_m) + " * (min(" + t + ", " + number(t0) + ")^" +
+                           number(beta) + " + " + number(beta * std::pow(t0, beta - 1)) + " * max(" + t + " - " +
+                           number(t0) + ", 0))";
+}
+
 /// Size field h(x) = min(max, edge + growth · a · g(d(x)/a)) / 2^refinement (g: MeshParameters), d = distance to the patch
-/// edge; the Box gets the uniform size edge / 2^refinement. Then the mesh options, so that the
+/// edge (exterior meshes: to the cut sphere); the Box gets the uniform size edge / 2^refinement. Then the mesh options, so that the
 /// recorded script meshes exactly as generate_mesh does.
 void set_mesh_options(const Shape& shape, const Classified& classified, ScriptedModel& model) {
   const MeshParameters& p = shape.parameters;
@@ -479,6 +528,16 @@ void set_mesh_options(const Shape& shape, const Classified& classified, Scripted
   if (p.benchmark == Benchmark::Box) {
     size = model.add_field("MathEval");
     model.set_field_string(size, "F", number(p.edge_size_m / scale));
+  } else if (p.exterior_of_local_ball) {
+    // The distance to the cut sphere in closed form, d = |x − c| − L ≥ 0 in the exterior: exact,
+    // and cheaper than sampling the sphere's faces. The trace on the cut is smooth (the patch
+    // edge lies inside the ball), so the linear law (β = 1) is the natural choice.
+    size = model.add_field("MathEval");
+    const Point& c = shape.contact;
+    const std::string d = "max(sqrt((x - " + number(c[0]) + ")^2 + (y - " + number(c[1]) + ")^2 + (z - " +
+                          number(c[2]) + ")^2) - " + number(p.local_radius_m) + ", 0)";
+    model.set_field_string(size, "F", "min(" + number(p.max_size_m) + ", " + number(p.edge_size_m) + " + " +
+                                          graded_size(p, d) + ") / " + number(scale));
   } else {
     const int distance = model.add_field("Distance");
     model.set_field_tags(distance, "CurvesList", classified.patch_edge_curves);
@@ -491,20 +550,10 @@ void set_mesh_options(const Shape& shape, const Classified& classified, Scripted
       model.set_field_number(distance, "NNodesByEdge", samples);  // its name before gmsh 4.9
     }
     size = model.add_field("MathEval");
-    // growth · a · g(d/a): g(t) = t for β = 1 (linear grading); for β < 1, g(t) = t^β up to
-    // t₀ = power_grading_extent (harder grading where the r^(1/2) singularity lives) and its
-    // tangent line beyond, so that large domains (B1) are not filled with small elements.
     const std::string d = "F" + std::to_string(distance);
-    const std::string t = "(" + d + " / " + number(p.tool_radius_m) + ")";
-    const double t0 = p.power_grading_extent, beta = p.size_exponent;
-    const std::string graded =
-        beta == 1.0 ? number(p.size_growth) + " * " + d
-                    : number(p.size_growth * p.tool_radius_m) + " * (min(" + t + ", " + number(t0) + ")^" +
-                          number(beta) + " + " + number(beta * std::pow(t0, beta - 1)) + " * max(" + t + " - " +
-                          number(t0) + ", 0))";
     model.set_field_string(size, "F",
-                           "min(" + number(p.max_size_m) + ", " + number(p.edge_size_m) + " + " + graded +
-                               ") / " + number(scale));
+                           "min(" + number(p.max_size_m) + ", " + number(p.edge_size_m) + " + " +
+                               graded_size(p, d) + ") / " + number(scale));
   }
   model.set_background_field(size);
 
@@ -543,6 +592,7 @@ std::string describe_parameters(const MeshParameters& p) {
   } else {
     text << " (R = " << p.body_radius_m << " m, a = " << p.tool_radius_m << " m";
     if (p.benchmark == Benchmark::B3) text << ", L = " << p.local_radius_m << " m";
+    if (p.exterior_of_local_ball) text << ", exterior of the ball L = " << p.local_radius_m << " m";
     if (p.benchmark == Benchmark::B5) text << ", theta = " << p.contact_polar_angle_rad << " rad";
     text << ", max_size = " << p.max_size_m << " m, size_growth = " << p.size_growth;
   }
@@ -727,11 +777,45 @@ void MeshParameters::validate() const {
     reject("tool_radius_m", tool_radius_m,
            "must be < body_radius_m / 2 = " + text_of(body_radius_m / 2));
   }
-  if (edge_size_m > tool_radius_m) {
+  // An exterior mesh has no patch edge to resolve; its size on the cut sphere must resolve that.
+  if (exterior_of_local_ball && edge_size_m > local_radius_m / 2) {
+    reject("edge_size_m", edge_size_m, "must be <= local_radius_m / 2 = " + text_of(local_radius_m / 2));
+  }
+  if (!exterior_of_local_ball && edge_size_m > tool_radius_m) {
     reject("edge_size_m", edge_size_m, "must be <= tool_radius_m = " + text_of(tool_radius_m));
   }
   if (max_size_m < edge_size_m) {
     reject("max_size_m", max_size_m, "must be >= edge_size_m = " + text_of(edge_size_m));
+  }
+
+  if (exterior_of_local_ball) {
+    if (benchmark != Benchmark::B1 && benchmark != Benchmark::B2 && benchmark != Benchmark::B5) {
+      throw std::invalid_argument("MeshParameters.exterior_of_local_ball = true needs benchmark B1, B2 or B5, not " +
+                                  to_string(benchmark));
+    }
+    require_positive("local_radius_m", local_radius_m);
+    // The patch must lie inside the ball (its edge is at chord distance sqrt(2R(R − z0)) from the
+    // contact on a sphere, a on B1's flat top), and the ball must stay clear of the clamped base
+    // (and of B1's side): a cut touching the base would impose ψ ≠ 0 against u = 0.
+    const double patch_edge_distance =
+        benchmark == Benchmark::B1
+            ? tool_radius_m
+            : std::sqrt(2 * body_radius_m *
+                        (body_radius_m - std::sqrt(body_radius_m * body_radius_m - tool_radius_m * tool_radius_m)));
+    if (!(local_radius_m > patch_edge_distance)) {
+      reject("local_radius_m", local_radius_m,
+             "must be > " + text_of(patch_edge_distance) + " (the distance from the contact to the patch edge)");
+    }
+    const double clearance = benchmark == Benchmark::B1
+                                 ? body_radius_m - local_radius_m
+                                 : body_radius_m * std::cos(benchmark == Benchmark::B5 ? contact_polar_angle_rad : 0.0) -
+                                       local_radius_m;
+    if (!(clearance > edge_size_m)) {
+      reject("local_radius_m", local_radius_m,
+             "leaves " + text_of(clearance) + " m between the cut ball and the base" +
+                 (benchmark == Benchmark::B1 ? std::string(" or side") : std::string()) +
+                 "; it must be > edge_size_m = " + text_of(edge_size_m));
+    }
   }
 
   if (benchmark == Benchmark::B3) {
@@ -827,6 +911,17 @@ void write_geometry_script(const MeshParameters& parameters, const std::string& 
     }
     return 0;
   });
+}
+
+ContactSite contact_site(const MeshParameters& parameters) {
+  if (parameters.benchmark == Benchmark::Box) {
+    throw std::invalid_argument("contact_site: the box benchmark has no contact");
+  }
+  const Shape shape = make_shape(parameters);
+  ContactSite site;
+  site.outward_normal = shape.patch_axis;
+  if (parameters.benchmark != Benchmark::B1) site.point_m = shape.contact;
+  return site;
 }
 
 std::string to_string(Benchmark benchmark) {

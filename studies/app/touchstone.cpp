@@ -6,6 +6,7 @@
 #include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/organ_atlas.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/studies/reference_study.hpp"
 #include "touchstone/studies/sim_scene.hpp"
@@ -284,6 +285,40 @@ int main(int argc, char** argv) {
       throw CLI::RuntimeError(1);
     }
     if (status != 0) throw CLI::RuntimeError(status);
+  });
+
+  // `touchstone atlas <study>`: the organ atlas of the enriched real-time model, K_ext by FEM per
+  // sample contact; runs in its callback like `study` (MPI for the solves).
+  std::string atlas_config, atlas_output;
+  bool atlas_no_cache = false, atlas_quiet = false;
+  studies::AtlasRunOptions atlas_options;
+  CLI::App* atlas_cmd = app.add_subcommand(
+      "atlas", "Organ atlas: the exterior stiffness K_ext [N/m] of the enriched MFS model (body minus ball(c, L), "
+               "trace = the punch fields on the cut) by FEM per sample contact, Richardson-extrapolated, with the "
+               "half-space closed form; writes organ_atlas.json and results.json");
+  atlas_cmd->add_option("config", atlas_config, "Study file (TOML), e.g. studies/atlas_hemisphere.toml")
+      ->required()->check(CLI::ExistingFile);
+  atlas_cmd->add_option("--out", atlas_output, "Output folder (default: output/<study name>)");
+  atlas_cmd->add_option("--cache", atlas_options.cache_directory, "Cache of finished solves")->capture_default_str();
+  atlas_cmd->add_flag("--no-cache", atlas_no_cache, "Solve everything again and cache nothing");
+  atlas_cmd->add_flag("--quiet", atlas_quiet, "Print only errors");
+  atlas_cmd->callback([&] {
+    try {
+      fem::MpiSession mpi(argc, argv);
+      atlas_options.config_text = studies::read_file(atlas_config);
+      atlas_options.quiet = atlas_quiet;
+      if (atlas_no_cache) atlas_options.cache_directory.clear();
+      studies::ConfigTable config = studies::ConfigTable::from_file(atlas_config);
+      const studies::OrganAtlasStudy study = studies::read_organ_atlas_study(config);
+      atlas_options.output_directory = atlas_output.empty() ? "output/" + study.name : atlas_output;
+      studies::run_organ_atlas_study(study, atlas_options);
+      if (fem::MpiSession::rank() == 0 && !atlas_quiet)
+        std::printf("\natlas: %s/organ_atlas.json, results: %s/results.json\n", atlas_options.output_directory.c_str(),
+                    atlas_options.output_directory.c_str());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      throw CLI::RuntimeError(1);
+    }
   });
 
   // `touchstone sim <scene>`: the real-time runtime (issue 6) on real threads or, with

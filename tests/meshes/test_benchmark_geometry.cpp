@@ -441,6 +441,80 @@ TEST(GenerateMesh, B5OffPolePatch) {
   EXPECT_NEAR(file.volume_and_worst_quality().first, exact_volume, 0.01 * exact_volume);
 }
 
+// The exterior of the MFS local domain: the body minus ball(c, L). Its cut sphere is the part of
+// the ball's sphere inside the body: on the hemisphere a cap of height L − L²/(2R) below the
+// contact (the spheres |x| = R and |x − c| = L with |c| = R meet in the plane n·x = R − L²/(2R)),
+// area 2π L (L − L²/(2R)); on the cylinder's flat top a half sphere, 2π L². Facets lose O(h²) of
+// the area; with h ≤ L/8 on the cut that is well below the 2 % asserted.
+TEST(GenerateMesh, ExteriorOfLocalBallOnTheHemisphereHasCutBaseAndFree) {
+  for (const double theta : {0.0, 0.6}) {
+    MeshParameters p = small_parameters(theta == 0 ? Benchmark::B2 : Benchmark::B5);
+    p.contact_polar_angle_rad = theta;
+    p.exterior_of_local_ball = true;
+    p.edge_size_m = p.local_radius_m / 10;
+    const double r = p.body_radius_m;
+    const double l = p.local_radius_m;
+    const MshFile file = mesh_and_read(p, "exterior_" + std::to_string(theta), {"base", "free", "cut", "tissue"});
+
+    const double cap = 2 * pi * l * (l - l * l / (2 * r));
+    EXPECT_NEAR(file.area(boundary_tags::cut), cap, 0.02 * cap) << "theta " << theta;
+    const Point contact{r * std::sin(theta), 0, r * std::cos(theta)};
+    expect_on_sphere(file.vertices(boundary_tags::cut), contact, l, 1e-9 * r, "cut on sphere L");
+    expect_on_sphere(file.vertices(boundary_tags::free), {0, 0, 0}, r, 1e-9 * r, "free on sphere R");
+    for (const Point& x : file.vertices(boundary_tags::free)) EXPECT_GE(norm(minus(x, contact)), l * (1 - 1e-9));
+    expect_on_plane_z(file.vertices(boundary_tags::base), 0.0, 1e-12 * r, "base z = 0");
+    // The hemisphere minus the lens B3 (same lens at any θ while the ball clears the base).
+    const double exact_volume = 2 * pi * r * r * r / 3 - pi * l * l * (8 * r * l - 3 * l * l) / (12 * r);
+    EXPECT_NEAR(file.volume_and_worst_quality().first, exact_volume, 0.01 * exact_volume);
+  }
+}
+
+TEST(GenerateMesh, ExteriorOfLocalBallOnTheCylinderTop) {
+  MeshParameters p = small_parameters(Benchmark::B1);
+  p.exterior_of_local_ball = true;
+  p.edge_size_m = p.local_radius_m / 10;
+  const double w = p.body_radius_m;
+  const double l = p.local_radius_m;
+  const MshFile file = mesh_and_read(p, "exterior_b1", {"base", "free", "cut", "tissue"});
+  const double half_sphere = 2 * pi * l * l;
+  EXPECT_NEAR(file.area(boundary_tags::cut), half_sphere, 0.02 * half_sphere);
+  expect_on_sphere(file.vertices(boundary_tags::cut), {0, 0, 0}, l, 1e-9 * w, "cut on sphere L");
+  for (const Point& x : file.vertices(boundary_tags::cut)) EXPECT_LE(x[2], 1e-9 * w);
+  expect_on_plane_z(file.vertices(boundary_tags::base), -w, 1e-12 * w, "base z = -W");
+  const double exact_volume = pi * w * w * w - 2 * pi * l * l * l / 3;
+  EXPECT_NEAR(file.volume_and_worst_quality().first, exact_volume, 0.01 * exact_volume);
+}
+
+TEST(Validate, ExteriorOfLocalBallNamesTheField) {
+  const auto message_of = [](const MeshParameters& p) {
+    try {
+      p.validate();
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string();
+  };
+  MeshParameters p = small_parameters(Benchmark::B3);
+  p.exterior_of_local_ball = true;
+  EXPECT_NE(message_of(p).find("exterior_of_local_ball"), std::string::npos) << message_of(p);
+  p = small_parameters(Benchmark::B2);
+  p.exterior_of_local_ball = true;
+  p.local_radius_m = 0.9 * p.tool_radius_m;  // the patch would stick out of the ball
+  EXPECT_NE(message_of(p).find("local_radius_m"), std::string::npos) << message_of(p);
+  p.local_radius_m = p.body_radius_m;  // the ball would reach the clamped base
+  EXPECT_NE(message_of(p).find("base"), std::string::npos) << message_of(p);
+}
+
+TEST(ContactSite, PoleOffPoleAndCylinderTop) {
+  MeshParameters p = small_parameters(Benchmark::B5);
+  const ContactSite site = contact_site(p);
+  EXPECT_NEAR(site.point_m[0], p.body_radius_m * std::sin(0.6), 1e-15);
+  EXPECT_NEAR(site.point_m[2], p.body_radius_m * std::cos(0.6), 1e-15);
+  EXPECT_NEAR(site.outward_normal[0], std::sin(0.6), 1e-15);
+  EXPECT_EQ(contact_site(small_parameters(Benchmark::B2)).point_m[2], p.body_radius_m);
+  EXPECT_EQ(contact_site(small_parameters(Benchmark::B1)).point_m[2], 0.0);
+}
+
 TEST(GenerateMesh, BoxFacesAndExactVolume) {
   MeshParameters p;
   p.benchmark = Benchmark::Box;

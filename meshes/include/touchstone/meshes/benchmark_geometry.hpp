@@ -44,11 +44,19 @@ struct MeshParameters {
   Benchmark benchmark = Benchmark::B2;
   double body_radius_m = 0.05;        ///< R (B2, B3, B5) or W (B1: cylinder radius = height)
   double tool_radius_m = 0.0025;      ///< a, radius of the tool patch circle
-  double local_radius_m = 0.0125;     ///< L (B3 only), radius of the ball around the pole
+  double local_radius_m = 0.0125;     ///< L (B3, and exterior meshes), radius of the ball around the contact
   double contact_polar_angle_rad = 0; ///< θ (B5 only), polar angle of the patch centre, 0 < θ < π/2
   std::array<double, 3> box_size_m{{1.0, 1.0, 1.0}};  ///< Box only
+  /// B1, B2, B5: mesh the body MINUS ball(c, local_radius_m) instead of the body, c the patch
+  /// centre on the surface (B1: the top centre (0, 0, 0); B2: the pole; B5: R (sin θ, 0, cos θ)).
+  /// This is the exterior of the MFS local domain, whose stiffness the enriched model needs. The
+  /// ball's sphere is the group "cut"; there is no tool patch (it lies inside the ball), and the
+  /// size field grades from the cut instead of the patch edge: d below is the distance |x − c| − L
+  /// to the cut sphere, edge_size_m the size on it.
+  bool exterior_of_local_ball = false;
 
-  /// Element size at the patch edge at refinement 0 [m]. Box: the uniform size.
+  /// Element size at the patch edge (exterior meshes: on the cut sphere) at refinement 0 [m].
+  /// Box: the uniform size.
   double edge_size_m = 0.0025 / 4;
   /// Growth of the element size with distance d from the patch edge:
   /// h(d) = min(max_size_m, edge_size_m + size_growth · d) at refinement 0 (dimensionless).
@@ -75,9 +83,18 @@ struct MeshSummary {
   std::string path;
   std::size_t node_count = 0;         ///< mesh vertices
   std::size_t tetrahedron_count = 0;
-  std::size_t patch_triangle_count = 0;
+  std::size_t patch_triangle_count = 0;  ///< 0 for exterior meshes (no patch)
   double seconds = 0;                 ///< wall time to build and mesh
 };
+
+/// Where the tool meets a benchmark body: the patch centre c on the surface [m] and the unit
+/// outward surface normal there. B1: (0, 0, 0) and +z; B2, B3: (0, 0, R) and +z; B5:
+/// R (sin θ, 0, cos θ) and (sin θ, 0, cos θ). Box: throws std::invalid_argument.
+struct ContactSite {
+  std::array<double, 3> point_m{{0.0, 0.0, 0.0}};
+  std::array<double, 3> outward_normal{{0.0, 0.0, 1.0}};
+};
+ContactSite contact_site(const MeshParameters& parameters);
 
 /// Builds the geometry with gmsh's OpenCASCADE kernel, meshes it with tetrahedra (first order)
 /// and writes MSH 2.2 ASCII to msh_path. Thread-safe (gmsh is global: calls are serialised).

@@ -1,0 +1,107 @@
+#pragma once
+/// @file
+/// `touchstone atlas`: the organ atlas of the enriched real-time model, computed offline by FEM.
+///
+/// For each sample contact c on the organ (the hemisphere: polar angles θ from a list, the tool
+/// along the inward normal; B1: the centre of the top face), K_ext [N/m] is the energy bilinear
+/// form of the EXTERIOR BODY (organ ∖ ball(c, L), its base clamped, traction-free elsewhere)
+/// under the Dirichlet trace u = ψ_m on the cut sphere, ψ_m the closed-form punch fields of
+/// realtime/mfs/punch_field.hpp: K_mm = 2 E(δ ψ_m) / δ², K_mn = (E(δ(ψ_m + ψ_n)) − E(δψ_m) −
+/// E(δψ_n)) / δ² (polarisation), each on a sequence of meshes and Richardson-extrapolated. The
+/// half-space closed form, K_mn = −∮ ψ_m·σ(ψ_n) n dA over the hemisphere of radius L below the
+/// surface (n out of the ball), is reported next to it. The atlas file is read by
+/// realtime/mfs/organ_atlas.hpp.
+
+#include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/realtime/mfs/organ_atlas.hpp"
+#include "touchstone/studies/config_reader.hpp"
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace touchstone::studies {
+
+/// Which punch modes the atlas holds: the normal one (frictionless contact: one solve per mesh)
+/// or all three (bonded: six solves per mesh, three of them for the off-diagonal entries).
+enum class AtlasModes { normal, all };
+std::string to_string(AtlasModes modes);  ///< "normal", "all"
+
+/// One study file of `touchstone atlas`.
+struct OrganAtlasStudy {
+  std::string name = "organ_atlas";
+  /// benchmark B2 (the hemisphere; a sample at θ > 0 is meshed as B5) or B1, body_radius_m,
+  /// tool_radius_m (a), local_radius_m (L); edge_size_m is the element size on the cut sphere at
+  /// level 0, size_growth and max_size_m grade it outward. exterior_of_local_ball is set per solve.
+  meshes::MeshParameters geometry;
+  fem::Material material;
+  std::vector<double> polar_angles_rad{0.0};  ///< hemisphere samples; B1 has its one sample
+  AtlasModes modes = AtlasModes::all;
+  std::vector<int> refinements{0, 1, 2};      ///< consecutive levels; three or more for Richardson
+  /// Depth scaling the trace [m]: the energies are divided by its square, so any value gives the
+  /// same K in exact arithmetic; 1e-4 m keeps the solver's absolute numbers in a usual range.
+  double trace_depth_m = 1.0e-4;
+  fem::SolverParameters solver;
+  int half_space_polar_points = 48;    ///< Gauss–Legendre points in the polar angle of the closed form
+  int half_space_azimuth_points = 64;  ///< equally spaced points in azimuth (periodic: spectral)
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// Reads [geometry] benchmark, body_radius, tool_radius, local_radius; [material]; [mesh]
+/// edge_size, size_growth, max_size, refinements; [atlas] polar_angles, modes, trace_depth;
+/// [solver]. Unknown keys are errors naming the file and the key.
+OrganAtlasStudy read_organ_atlas_study(ConfigTable& config);
+
+/// The punch frame of a sample: origin at the centre of the rim circle (c − (R − √(R² − a²)) n on
+/// a sphere of radius R, c itself on a flat face), e₃ = −n, the inward normal.
+realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geometry);
+
+/// The half-space K_ext [N/m] (3×3, mode order normal, tangential_1, tangential_2):
+/// −∮ ψ_m·σ(ψ_n)·n dA over the hemisphere of radius L below the surface, centred on the contact,
+/// by Gauss–Legendre in the polar angle and the trapezoidal rule in azimuth. Symmetrised; the
+/// quadrature is smooth (the rim lies L − a inside the ball).
+Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, double local_radius_m,
+                                                      const realtime::mfs::Material& material, int polar_points = 48,
+                                                      int azimuth_points = 64);
+
+/// K_ext of one sample on each mesh level and its extrapolation.
+struct ExteriorStiffness {
+  std::vector<Eigen::Matrix3d> levels_N_per_m;  ///< per refinement level (top-left mode block set)
+  std::vector<std::size_t> dofs;                ///< per level
+  Eigen::Matrix3d stiffness_N_per_m = Eigen::Matrix3d::Zero();  ///< Richardson (≥ 3 levels), else the finest
+  /// Observed convergence order of the normal entry (NaN when not monotone or < 3 levels).
+  double observed_order = 0;
+  /// Estimated relative error of stiffness_N_per_m: the largest relative Richardson correction of
+  /// a diagonal entry (the extrapolated value is typically far better than the correction it
+  /// applies), or with two levels the relative difference of the last two.
+  double relative_error = 0;
+  bool asymptotic = false;  ///< Richardson's monotone-and-plausible-order check on every diagonal entry
+  double seconds = 0;       ///< wall time of the sample (meshing and solves; 0 for cached solves)
+  std::size_t solves = 0, cached_solves = 0;
+};
+
+struct AtlasRunOptions {
+  std::string output_directory = "output/organ_atlas";
+  std::string cache_directory = ".cache/touchstone";  ///< empty: no cache
+  std::string config_text;                            ///< for provenance
+  bool quiet = false;
+};
+
+/// The FEM K_ext of one contact: `geometry` is the body with its contact (B1, B2 or B5;
+/// exterior_of_local_ball is set here), one mesh per level in `work_directory` (or the cache).
+ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const fem::Material& material,
+                                         AtlasModes modes, const std::vector<int>& refinements, double trace_depth_m,
+                                         const fem::SolverParameters& solver, const AtlasRunOptions& options,
+                                         const std::string& work_directory);
+
+/// Runs the study (collective over MPI ranks; rank 0 meshes and writes): writes
+/// <output>/organ_atlas.json (realtime::mfs::read_organ_atlas reads it) and <output>/results.json
+/// (per sample and level, with provenance). Returns the atlas.
+realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, const AtlasRunOptions& options);
+
+}  // namespace touchstone::studies

@@ -1,0 +1,486 @@
+#include "touchstone/studies/organ_atlas.hpp"
+
+#include "touchstone/fem/richardson.hpp"
+#include "touchstone/realtime/mfs/punch_field.hpp"
+#include "touchstone/studies/provenance.hpp"
+#include "touchstone/version.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace touchstone::studies {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using realtime::mfs::PunchFrame;
+using realtime::mfs::PunchMode;
+
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+/// Energy converges at the order of the geometry error: the curved cut and free surfaces are
+/// faceted (linear mapping), an O(h²) change of the domain; the P2 field error itself enters the
+/// energy at O(h⁴) for the smooth traces here.
+constexpr double energy_convergence_order = 2.0;
+
+std::string format_number(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+json vector_json(const Eigen::Vector3d& v) { return json::array({v[0], v[1], v[2]}); }
+json matrix_json(const Eigen::Matrix3d& m, int n) {
+  json rows = json::array();
+  for (int i = 0; i < n; ++i) {
+    json row = json::array();
+    for (int j = 0; j < n; ++j) row.push_back(m(i, j));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+Eigen::Vector3d to_eigen(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
+
+realtime::mfs::Material realtime_material(const fem::Material& m) {
+  realtime::mfs::Material out;
+  out.youngs_modulus_Pa = m.youngs_modulus_Pa;
+  out.poisson_ratio = m.poisson_ratio;
+  return out;
+}
+
+/// Gauss–Legendre nodes and weights on [0, 1] by Newton's method on P_n.
+void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
+  x.assign(n, 0.0);
+  w.assign(n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    double t = std::cos(pi * (i + 0.75) / (n + 0.5));
+    double derivative = 1;
+    for (int iteration = 0; iteration < 100; ++iteration) {
+      double p0 = 1, p1 = t;
+      for (int k = 2; k <= n; ++k) {
+        const double p2 = ((2 * k - 1) * t * p1 - (k - 1) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      derivative = n * (t * p1 - p0) / (t * t - 1);
+      const double step = p1 / derivative;
+      t -= step;
+      if (std::abs(step) < 1e-15) break;
+    }
+    x[i] = 0.5 * (1 - t);
+    w[i] = 1.0 / ((1 - t * t) * derivative * derivative);  // 2/((1−t²)P'²) on [−1, 1], halved
+  }
+}
+
+constexpr std::array<PunchMode, 3> mode_order{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
+
+int mode_count(AtlasModes modes) { return modes == AtlasModes::normal ? 1 : 3; }
+
+/// The Dirichlet traces solved for: each diagonal mode alone, then each pair (polarisation).
+std::vector<std::pair<int, int>> trace_combinations(AtlasModes modes) {
+  const int n = mode_count(modes);
+  std::vector<std::pair<int, int>> out;
+  for (int m = 0; m < n; ++m) out.emplace_back(m, m);
+  for (int m = 0; m < n; ++m)
+    for (int k = m + 1; k < n; ++k) out.emplace_back(m, k);
+  return out;
+}
+
+std::string combination_name(const std::pair<int, int>& c) {
+  static const char* const names[3] = {"normal", "tangential_1", "tangential_2"};
+  return c.first == c.second ? names[c.first] : std::string(names[c.first]) + "+" + names[c.second];
+}
+
+json geometry_json(const meshes::MeshParameters& g) {
+  return {{"benchmark", meshes::to_string(g.benchmark)},
+          {"body_radius_m", g.body_radius_m},
+          {"tool_radius_m", g.tool_radius_m},
+          {"local_radius_m", g.local_radius_m},
+          {"contact_polar_angle_rad", g.contact_polar_angle_rad},
+          {"exterior_of_local_ball", g.exterior_of_local_ball},
+          {"edge_size_m", g.edge_size_m},
+          {"size_growth", g.size_growth},
+          {"size_exponent", g.size_exponent},
+          {"power_grading_extent", g.power_grading_extent},
+          {"max_size_m", g.max_size_m},
+          {"refinement", g.refinement}};
+}
+
+std::string sample_label(const meshes::MeshParameters& g) {
+  if (g.benchmark == meshes::Benchmark::B1) return "top_centre";
+  return "theta=" + format_number(std::round(g.contact_polar_angle_rad * 180 / pi * 1e6) / 1e6) + "deg";
+}
+
+}  // namespace
+
+std::string to_string(AtlasModes modes) { return modes == AtlasModes::normal ? "normal" : "all"; }
+
+realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geometry) {
+  const meshes::ContactSite site = meshes::contact_site(geometry);
+  const Eigen::Vector3d c = to_eigen(site.point_m), n = to_eigen(site.outward_normal);
+  Eigen::Vector3d origin = c;
+  if (geometry.benchmark != meshes::Benchmark::B1) {
+    const double r = geometry.body_radius_m, a = geometry.tool_radius_m;
+    origin = c - (r - std::sqrt(r * r - a * a)) * n;
+  }
+  return PunchFrame::along(origin, -n);
+}
+
+Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, double local_radius_m,
+                                                      const realtime::mfs::Material& material, int polar_points,
+                                                      int azimuth_points) {
+  if (!(local_radius_m > tool_radius_m) || !(tool_radius_m > 0))
+    throw std::invalid_argument("half_space_exterior_stiffness_N_per_m: local_radius_m = " +
+                                format_number(local_radius_m) + " must exceed tool_radius_m = " +
+                                format_number(tool_radius_m) + " > 0");
+  if (polar_points < 2 || azimuth_points < 4)
+    throw std::invalid_argument("half_space_exterior_stiffness_N_per_m: needs >= 2 polar and >= 4 azimuth points");
+  material.validate();
+  const PunchFrame frame = PunchFrame::along(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  std::vector<double> x, w;
+  gauss_legendre(polar_points, x, w);
+  const double l = local_radius_m;
+  Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < polar_points; ++i) {
+    const double phi = 0.5 * pi * x[i];  // from the axis e₃ (into the body) to the surface
+    const double polar_weight = 0.5 * pi * w[i] * l * l * std::sin(phi);
+    for (int j = 0; j < azimuth_points; ++j) {
+      const double alpha = 2 * pi * j / azimuth_points;
+      const Eigen::Vector3d normal(std::sin(phi) * std::cos(alpha), std::sin(phi) * std::sin(alpha), std::cos(phi));
+      const Eigen::Vector3d point = l * normal;
+      const double weight = polar_weight * 2 * pi / azimuth_points;
+      std::array<realtime::mfs::PunchFieldSample, 3> fields;
+      for (int m = 0; m < 3; ++m) fields[m] = realtime::mfs::punch_field(mode_order[m], frame, tool_radius_m, material, point);
+      for (int m = 0; m < 3; ++m)
+        for (int n = 0; n < 3; ++n)
+          k(m, n) -= weight * fields[m].displacement.dot(fields[n].stress_Pa_per_m * normal);
+    }
+  }
+  return 0.5 * (k + k.transpose());
+}
+
+ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const fem::Material& material,
+                                         AtlasModes modes, const std::vector<int>& refinements, double trace_depth_m,
+                                         const fem::SolverParameters& solver, const AtlasRunOptions& options,
+                                         const std::string& work_directory) {
+  const bool rank0 = fem::MpiSession::rank() == 0;
+  meshes::MeshParameters g = geometry;
+  g.exterior_of_local_ball = true;
+  const PunchFrame frame = atlas_punch_frame(geometry);
+  const realtime::mfs::Material punch_material = realtime_material(material);
+  const double a = g.tool_radius_m;
+  const int n = mode_count(modes);
+  const auto combinations = trace_combinations(modes);
+
+  ExteriorStiffness result;
+  const auto start = std::chrono::steady_clock::now();
+  for (const int level : refinements) {
+    g.refinement = level;
+    json key_params{{"geometry", geometry_json(g)},
+                    {"youngs_modulus_Pa", material.youngs_modulus_Pa},
+                    {"poisson_ratio", material.poisson_ratio},
+                    {"trace_depth_m", trace_depth_m},
+                    {"degree", solver.degree},
+                    {"formulation", fem::to_string(solver.formulation)},
+                    {"solver", fem::to_string(solver.solver)},
+                    {"relative_tolerance", solver.relative_tolerance},
+                    {"frame_origin_m", vector_json(frame.origin)},
+                    {"frame_e1", vector_json(frame.axes.col(0))},
+                    {"frame_e3", vector_json(frame.axes.col(2))}};
+    const std::string key = sha256_hex(key_params.dump() + touchstone::version::atlas_source_hash);
+    const std::string entry = options.cache_directory.empty()
+                                  ? (fs::path(work_directory) / ("L" + std::to_string(level))).string()
+                                  : options.cache_directory + "/atlas/" + key.substr(0, 24);
+    const std::string energies_path = entry + "/energies.json";
+    const std::string msh_path = entry + "/mesh.msh";
+
+    fem::MpiSession::barrier();
+    json energies = json::object();
+    if (!options.cache_directory.empty() && fs::exists(energies_path)) energies = json::parse(read_file(energies_path));
+    const bool missing = std::any_of(combinations.begin(), combinations.end(),
+                                     [&](const auto& c) { return !energies.contains(combination_name(c)); });
+    if (missing && (options.cache_directory.empty() || !fs::exists(msh_path))) {
+      if (rank0) {
+        fs::create_directories(entry);
+        meshes::generate_mesh(g, msh_path);
+      }
+      fem::MpiSession::barrier();
+    }
+    for (const auto& combination : combinations) {
+      const std::string name = combination_name(combination);
+      if (energies.contains(name)) {
+        ++result.cached_solves;
+        continue;
+      }
+      fem::ElasticityProblem problem;
+      problem.mesh_path = msh_path;
+      problem.material = material;
+      problem.clamped_boundaries = {"base"};
+      problem.solver = solver;
+      std::vector<PunchMode> traced{mode_order[combination.first]};
+      if (combination.second != combination.first) traced.push_back(mode_order[combination.second]);
+      problem.conditions.push_back(
+          {"cut", fem::BoundaryCondition::Kind::displacement,
+           [frame, a, punch_material, traced, trace_depth_m](const Eigen::Vector3d& x) {
+             Eigen::Vector3d u = Eigen::Vector3d::Zero();
+             for (const PunchMode mode : traced)
+               u += realtime::mfs::punch_field(mode, frame, a, punch_material, x).displacement;
+             return Eigen::Vector3d(trace_depth_m * u);
+           }});
+      const auto solve_start = std::chrono::steady_clock::now();
+      const fem::ElasticitySolution s = fem::solve_elasticity(problem);
+      energies[name] = {{"energy_J", s.energy_J},
+                        {"dofs", s.dof_count},
+                        {"iterations", s.solver_iterations},
+                        {"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count()}};
+      ++result.solves;
+      if (rank0) write_file_atomically(energies_path, energies.dump(2) + "\n");
+      fem::MpiSession::barrier();
+    }
+
+    const double scale = 1.0 / (trace_depth_m * trace_depth_m);
+    const auto energy = [&](int m, int k) {
+      return energies.at(combination_name({m, k})).at("energy_J").get<double>();
+    };
+    Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
+    for (int m = 0; m < n; ++m) k(m, m) = 2 * energy(m, m) * scale;
+    for (int m = 0; m < n; ++m)
+      for (int j = m + 1; j < n; ++j) k(m, j) = k(j, m) = (energy(m, j) - energy(m, m) - energy(j, j)) * scale;
+    result.levels_N_per_m.push_back(k);
+    result.dofs.push_back(energies.at(combination_name({0, 0})).at("dofs").get<std::size_t>());
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // Richardson with the normal entry's observed order for every entry, so the extrapolated
+  // matrix stays one consistent linear combination of the last two levels (symmetric, and
+  // positive definite whenever both are, for a positive correction weight below one).
+  const auto& levels = result.levels_N_per_m;
+  const Eigen::Matrix3d& finest = levels.back();
+  result.stiffness_N_per_m = finest;
+  result.observed_order = std::numeric_limits<double>::quiet_NaN();
+  if (levels.size() >= 3) {
+    std::vector<double> normal;
+    for (const auto& k : levels) normal.push_back(k(0, 0));
+    const fem::RichardsonEstimate r = fem::richardson_extrapolate(normal, 2.0, energy_convergence_order);
+    result.observed_order = r.observed_order;
+    result.asymptotic = r.asymptotic;
+    for (int m = 1; m < n; ++m) {
+      std::vector<double> values;
+      for (const auto& k : levels) values.push_back(k(m, m));
+      result.asymptotic = result.asymptotic && fem::richardson_extrapolate(values, 2.0, energy_convergence_order).asymptotic;
+    }
+    if (std::isfinite(r.observed_order) && r.observed_order > 0) {
+      const Eigen::Matrix3d& previous = levels[levels.size() - 2];
+      result.stiffness_N_per_m = finest + (finest - previous) / (std::pow(2.0, r.observed_order) - 1);
+    }
+  }
+  double error = 0;
+  const Eigen::Matrix3d& previous = levels.size() >= 2 ? levels[levels.size() - 2] : finest;
+  for (int m = 0; m < n; ++m) {
+    const double k = result.stiffness_N_per_m(m, m);
+    const double correction = std::abs(k - finest(m, m));
+    // Without an extrapolation the last change is the estimate (one level: none, reported as 0).
+    error = std::max(error, (correction > 0 ? correction : std::abs(finest(m, m) - previous(m, m))) / std::abs(k));
+  }
+  result.relative_error = error;
+  return result;
+}
+
+void OrganAtlasStudy::validate() const {
+  if (name.empty()) throw std::invalid_argument("OrganAtlasStudy.name is empty");
+  if (geometry.benchmark != meshes::Benchmark::B1 && geometry.benchmark != meshes::Benchmark::B2)
+    throw std::invalid_argument("OrganAtlasStudy.geometry.benchmark = " + meshes::to_string(geometry.benchmark) +
+                                " must be B1 (the cylinder) or B2 (the hemisphere)");
+  material.validate();
+  solver.validate();
+  if (polar_angles_rad.empty()) throw std::invalid_argument("OrganAtlasStudy.polar_angles_rad is empty");
+  for (const double theta : polar_angles_rad) {
+    meshes::MeshParameters g = geometry;
+    g.exterior_of_local_ball = true;
+    if (g.benchmark == meshes::Benchmark::B2 && theta != 0) {
+      g.benchmark = meshes::Benchmark::B5;
+      g.contact_polar_angle_rad = theta;
+    }
+    if (geometry.benchmark == meshes::Benchmark::B1 && theta != 0)
+      throw std::invalid_argument("OrganAtlasStudy.polar_angles_rad: B1 has one sample, the top centre (theta = 0)");
+    g.validate();
+  }
+  if (refinements.empty()) throw std::invalid_argument("OrganAtlasStudy.refinements is empty");
+  for (std::size_t i = 1; i < refinements.size(); ++i)
+    if (refinements[i] != refinements[i - 1] + 1)
+      throw std::invalid_argument("OrganAtlasStudy.refinements must be consecutive levels, e.g. [0, 1, 2]");
+  if (!std::isfinite(trace_depth_m) || trace_depth_m <= 0)
+    throw std::invalid_argument("OrganAtlasStudy.trace_depth_m = " + format_number(trace_depth_m) + " must be > 0");
+  if (half_space_polar_points < 2)
+    throw std::invalid_argument("OrganAtlasStudy.half_space_polar_points = " + std::to_string(half_space_polar_points) +
+                                " must be >= 2");
+  if (half_space_azimuth_points < 4)
+    throw std::invalid_argument("OrganAtlasStudy.half_space_azimuth_points = " +
+                                std::to_string(half_space_azimuth_points) + " must be >= 4");
+}
+
+OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
+  OrganAtlasStudy study;
+  study.name = config.string("study", study.name);
+  ConfigTable geometry = config.table("geometry");
+  meshes::MeshParameters& g = study.geometry;
+  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2"}, "B2"));
+  g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
+  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
+  g.local_radius_m = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
+
+  ConfigTable material = config.table("material");
+  study.material.youngs_modulus_Pa =
+      material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
+  study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
+
+  ConfigTable atlas = config.table("atlas");
+  study.polar_angles_rad = atlas.quantity_list("polar_angles", Dimension::angle, study.polar_angles_rad);
+  study.modes = atlas.choice("modes", {"normal", "all"}, "all") == "normal" ? AtlasModes::normal : AtlasModes::all;
+  const int levels = read_int(atlas, "levels", 3);
+  if (levels < 1 || levels > 5) throw ConfigError(atlas.where("levels") + ": " + std::to_string(levels) + " must be in [1, 5]");
+  study.refinements.clear();
+  for (int level = 0; level < levels; ++level) study.refinements.push_back(level);
+  // Level 0 puts a/2 … a on the cut (the trace is smooth there: the rim lies L − a inside the
+  // ball) and grows outward; each level halves every size.
+  g.edge_size_m = atlas.quantity("edge_size", Dimension::length, g.tool_radius_m);
+  g.size_growth = atlas.number("size_growth", 0.5);
+  g.size_exponent = 1.0;
+  g.max_size_m = atlas.quantity("max_size", Dimension::length, g.body_radius_m / 5);
+  study.trace_depth_m = atlas.quantity("trace_depth", Dimension::length, study.trace_depth_m);
+  study.half_space_polar_points = read_int(atlas, "half_space_polar_points", study.half_space_polar_points);
+  study.half_space_azimuth_points = read_int(atlas, "half_space_azimuth_points", study.half_space_azimuth_points);
+
+  ConfigTable solver = config.table("solver");
+  study.solver.degree = static_cast<unsigned int>(solver.integer("degree", study.solver.degree));
+  study.solver.solver = fem::linear_solver_from_string(
+      solver.choice("method", {"cg_amg_trilinos", "cg_gamg_petsc", "direct_mumps"}, "cg_amg_trilinos"));
+  study.solver.relative_tolerance = solver.number("relative_tolerance", study.solver.relative_tolerance);
+  study.solver.max_iterations = static_cast<unsigned int>(solver.integer("max_iterations", study.solver.max_iterations));
+  config.finish();
+  try {
+    study.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(config.where("") + e.what());
+  }
+  return study;
+}
+
+realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, const AtlasRunOptions& options) {
+  study.validate();
+  const bool rank0 = fem::MpiSession::rank() == 0;
+  const int n = mode_count(study.modes);
+  const realtime::mfs::Material punch_material = realtime_material(study.material);
+  const double a = study.geometry.tool_radius_m, l = study.geometry.local_radius_m;
+
+  const Eigen::Matrix3d half_space = half_space_exterior_stiffness_N_per_m(
+      a, l, punch_material, study.half_space_polar_points, study.half_space_azimuth_points);
+
+  realtime::mfs::OrganAtlas atlas;
+  atlas.organ = study.geometry.benchmark == meshes::Benchmark::B1
+                    ? "B1 cylinder W = " + format_number(study.geometry.body_radius_m) +
+                          " m, top face z = 0, base z = -W clamped"
+                    : "B2 hemisphere R = " + format_number(study.geometry.body_radius_m) + " m, base z = 0 clamped";
+  atlas.axisymmetric_about_z = true;  // both benchmark bodies and their clamped bases are
+  atlas.mode_count = n;
+
+  json samples = json::array();
+  const auto start = std::chrono::steady_clock::now();
+  if (rank0 && !options.quiet)
+    std::printf("%s: %zu sample%s, modes %s, levels %d..%d; half-space K_ext normal %.6g N/m, tangential %.6g N/m\n",
+                study.name.c_str(), study.polar_angles_rad.size(), study.polar_angles_rad.size() == 1 ? "" : "s",
+                to_string(study.modes).c_str(), study.refinements.front(), study.refinements.back(), half_space(0, 0),
+                half_space(1, 1));
+  for (const double theta : study.polar_angles_rad) {
+    meshes::MeshParameters g = study.geometry;
+    if (g.benchmark == meshes::Benchmark::B2 && theta != 0) {
+      g.benchmark = meshes::Benchmark::B5;
+      g.contact_polar_angle_rad = theta;
+    }
+    const std::string label = sample_label(g);
+    const ExteriorStiffness k =
+        exterior_stiffness_fem(g, study.material, study.modes, study.refinements, study.trace_depth_m, study.solver,
+                               options, (fs::path(options.output_directory) / "work" / label).string());
+
+    realtime::mfs::OrganAtlasSample sample;
+    sample.label = label;
+    sample.contact_point_m = to_eigen(meshes::contact_site(g).point_m);
+    sample.frame = atlas_punch_frame(g);
+    sample.direction = sample.frame.axes.col(2);
+    sample.tool_radius_m = a;
+    sample.local_radius_m = l;
+    sample.youngs_modulus_Pa = study.material.youngs_modulus_Pa;
+    sample.poisson_ratio = study.material.poisson_ratio;
+    sample.stiffness_N_per_m.topLeftCorner(n, n) = k.stiffness_N_per_m.topLeftCorner(n, n);
+    sample.half_space_stiffness_N_per_m.topLeftCorner(n, n) = half_space.topLeftCorner(n, n);
+    sample.relative_error = k.relative_error;
+    sample.dofs = k.dofs.back();
+    sample.seconds = k.seconds;
+    atlas.samples.push_back(sample);
+
+    json levels = json::array();
+    for (std::size_t i = 0; i < k.levels_N_per_m.size(); ++i)
+      levels.push_back({{"refinement", study.refinements[i]},
+                        {"dofs", k.dofs[i]},
+                        {"stiffness_N_per_m", matrix_json(k.levels_N_per_m[i], n)}});
+    json ratio = json::array();
+    for (int m = 0; m < n; ++m) ratio.push_back(k.stiffness_N_per_m(m, m) / half_space(m, m));
+    samples.push_back({{"label", label},
+                       {"contact_polar_angle_rad", theta},
+                       {"contact_point_m", vector_json(sample.contact_point_m)},
+                       {"direction", vector_json(sample.direction)},
+                       {"frame_origin_m", vector_json(sample.frame.origin)},
+                       {"stiffness_N_per_m", matrix_json(sample.stiffness_N_per_m, n)},
+                       {"half_space_stiffness_N_per_m", matrix_json(sample.half_space_stiffness_N_per_m, n)},
+                       {"ratio_to_half_space_diagonal", ratio},
+                       {"observed_order", std::isfinite(k.observed_order) ? json(k.observed_order) : json(nullptr)},
+                       {"asymptotic", k.asymptotic},
+                       {"relative_error", k.relative_error},
+                       {"levels", levels},
+                       {"solves", k.solves},
+                       {"cached_solves", k.cached_solves},
+                       {"seconds", k.seconds}});
+    if (rank0 && !options.quiet) {
+      std::printf("  %-14s K_nn = %.6g N/m (x%.5f half-space)", label.c_str(), k.stiffness_N_per_m(0, 0), ratio[0].get<double>());
+      if (n == 3)
+        std::printf(", K_t1 = %.6g (x%.5f), K_t2 = %.6g (x%.5f), K_n,t1 = %.4g", k.stiffness_N_per_m(1, 1),
+                    ratio[1].get<double>(), k.stiffness_N_per_m(2, 2), ratio[2].get<double>(), k.stiffness_N_per_m(0, 1));
+      std::printf("; error %.3f %%, order %s, %zu dofs, %zu solves (%zu cached), %.1f s\n", 100 * k.relative_error,
+                  std::isfinite(k.observed_order) ? format_number(k.observed_order).c_str() : "n/a", k.dofs.back(),
+                  k.solves, k.cached_solves, k.seconds);
+      std::fflush(stdout);
+    }
+  }
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (rank0) {
+    fs::create_directories(options.output_directory);
+    realtime::mfs::write_organ_atlas(atlas, options.output_directory + "/organ_atlas.json");
+    json document{{"study", study.name},
+                  {"provenance", provenance(options.config_text)},
+                  {"organ", atlas.organ},
+                  {"modes", to_string(study.modes)},
+                  {"tool_radius_m", a},
+                  {"local_radius_m", l},
+                  {"youngs_modulus_Pa", study.material.youngs_modulus_Pa},
+                  {"poisson_ratio", study.material.poisson_ratio},
+                  {"trace_depth_m", study.trace_depth_m},
+                  {"half_space_stiffness_N_per_m", matrix_json(half_space, 3)},
+                  {"samples", samples},
+                  {"cost_s", {{"total", total}, {"per_sample", total / study.polar_angles_rad.size()}}}};
+    write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");
+    if (!options.quiet)
+      std::printf("offline cost: %.1f s for the organ, %.1f s per sample (cached solves cost nothing)\n", total,
+                  total / study.polar_angles_rad.size());
+  }
+  return atlas;
+}
+
+}  // namespace touchstone::studies
