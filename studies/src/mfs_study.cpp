@@ -2,6 +2,8 @@
 // structs), the cases of the sweep, results.json (DESIGN.md §8) and the node clouds as VTU.
 #include "touchstone/studies/mfs_study.hpp"
 
+#include "touchstone/realtime/mfs/organ_atlas.hpp"
+
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
 #include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
@@ -17,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -314,7 +317,9 @@ std::vector<double> node_rcond(const mfs::NodeCloud& cloud, const mfs::MlsSettin
 class CaseRunner {
  public:
   CaseRunner(const MfsStudy& study, const Organ& organ, const MfsRunOptions& options)
-      : study_(study), organ_(organ), options_(options) {}
+      : study_(study), organ_(organ), options_(options) {
+    if (!study.atlas_path.empty()) atlas_ = mfs::read_organ_atlas(study.atlas_path);
+  }
 
   json run(mfs::PatchCondition condition, int node_count) const {
     const mfs::ToolContact contact = tool_contact(study_, condition);
@@ -347,7 +352,8 @@ class CaseRunner {
 
  private:
   void solve(json& c, const mfs::ToolContact& contact, const mfs::LocalModelSettings& settings) const {
-    const mfs::LocalModel model = mfs::build_local_model(organ_.surface, contact, study_.material, settings, organ_.clamped);
+    const mfs::LocalModel model =
+        mfs::build_local_model(organ_.surface, contact, study_.material, settings, organ_.clamped, exterior_source());
     const mfs::NodeCloud& cloud = model.cloud;
     json& params = c["params"];
     params["node_count"] = cloud.size();
@@ -506,8 +512,34 @@ class CaseRunner {
     }
   }
 
+  /// The body-aware exterior from the organ atlas, if one was given.
+  mfs::ExteriorStiffnessSource exterior_source() const {
+    if (!atlas_) return {};
+    return [this](const mfs::ToolContact& contact, double local_radius_m, const mfs::Material& material, int modes,
+                  Eigen::MatrixXd& stiffness, std::string& why_not) {
+      mfs::OrganAtlasQuery query;
+      query.contact_point_m = contact.point;
+      query.direction = contact.direction;
+      query.tool_radius_m = contact.radius_m;
+      query.local_radius_m = local_radius_m;
+      query.material = material;
+      const mfs::OrganAtlasLookup found = mfs::lookup_exterior_stiffness(*atlas_, query);
+      if (found.status != mfs::OrganAtlasStatus::ok) {
+        why_not = "organ atlas: " + found.message;
+        return false;
+      }
+      if (found.mode_count < modes) {
+        why_not = "organ atlas has the normal mode only; a bonded tool needs all three";
+        return false;
+      }
+      stiffness = found.stiffness_N_per_m.topLeftCorner(modes, modes);
+      return true;
+    };
+  }
+
   const MfsStudy& study_;
   const Organ& organ_;
+  std::optional<mfs::OrganAtlas> atlas_;
   const MfsRunOptions& options_;
 };
 
@@ -705,6 +737,16 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
     study.surface_path = fs::absolute(path).lexically_normal().string();
   }
   study.clamped_group = organ.string("clamped_group", study.surface_path.empty() ? "base" : "");
+  const std::string atlas = organ.string("atlas", "");
+  if (!atlas.empty()) {
+    fs::path path(atlas);
+    if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
+    std::error_code ignored;
+    if (!fs::is_regular_file(path, ignored))
+      throw ConfigError(organ.where("atlas") + ": no such file '" + path.string() + "' (make it with touchstone atlas)");
+    study.atlas_path = fs::absolute(path).lexically_normal().string();
+    mfs::read_organ_atlas(study.atlas_path);  // a broken atlas is a config error, named now
+  }
   // A few thousand triangles: fine (a/8) where the tool and the local ball are, coarse far away.
   g.edge_size_m = organ.quantity("edge_size", Dimension::length, g.tool_radius_m / 8);
   g.size_growth = organ.quantity("size_growth", Dimension::dimensionless, 0.2);
@@ -779,6 +821,7 @@ std::string resolved_config_toml(const MfsStudy& study) {
                        {"contact_polar_angle", g.contact_polar_angle_rad}};
   toml::table organ;
   organ.insert("clamped_group", study.clamped_group);
+  if (!study.atlas_path.empty()) organ.insert("atlas", study.atlas_path);
   if (study.surface_path.empty()) {
     organ.insert("edge_size", g.edge_size_m);
     organ.insert("size_growth", g.size_growth);

@@ -1409,6 +1409,7 @@ std::vector<MfsSeries> read_problem_series(const std::string& path, const toml::
     s.node_counts = defaults.study.node_counts;
     s.model.sprinkling.node_count = defaults.study.model.sprinkling.node_count;
     s.write_vtu = defaults.study.write_vtu;
+    s.atlas_path = defaults.study.atlas_path;  // the organ's data, not an engine setting
     return resolved_config_toml(s);
   };
   const std::string default_text = normalised(defaults.study);

@@ -160,7 +160,9 @@ void LocalModelSettings::validate() const {
       throw std::invalid_argument("MlsSettings.max_support_scale = " + std::to_string(collocation.mls.max_support_scale) +
                                   " must be in [1, 4]");
     enriched.validate();
-    force.validate();
+    // Its haptic force is always the patch multiplier's resultant; the energy never is a force map.
+    if (force.haptic_method == ForceMethod::energy)
+      throw std::invalid_argument("ForceSettings.haptic_method = energy: the energy force is not linear in U_tool");
     return;
   }
   sprinkling.validate();

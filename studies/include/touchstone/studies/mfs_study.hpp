@@ -33,6 +33,9 @@ struct MfsStudy {
   /// "base" for a generated benchmark (its clamped base; it matters when the local ball reaches
   /// it, e.g. B5 near the base), none ("") by default for a surface file.
   std::string clamped_group;
+  /// The organ atlas (`touchstone atlas`) that gives the enriched model its body-aware exterior;
+  /// absolute path, empty: none (the model then says it used the half-space exterior).
+  std::string atlas_path;
   /// Contact point on the organ surface [m]; unset: the benchmark's (R n at the polar angle;
   /// the origin on B1).
   std::optional<Eigen::Vector3d> contact_point_m;
