@@ -358,6 +358,12 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
 
 NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact, int node_count,
                               double local_radius_m, std::uint64_t seed) {
+  return sprinkle_even_nodes(LocalSurface(organ, contact.point, 1.3 * local_radius_m), contact, node_count,
+                             local_radius_m, seed);
+}
+
+NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& contact, int node_count,
+                              double local_radius_m, std::uint64_t seed) {
   if (node_count < 10 || node_count > 5000)
     throw std::invalid_argument("node_count = " + std::to_string(node_count) + " must be in [10, 5000]");
   const double length = local_radius_m, a = contact.radius_m;
@@ -368,11 +374,11 @@ NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const Tool
   if (!(a > 0) || !(a < 0.5 * length))
     throw std::invalid_argument("ToolContact.radius_m = " + std::to_string(a) + " must be in (0, L/2) with L = " +
                                 std::to_string(length));
-  const geometry::SurfaceProjection hit = organ.project(contact.point);
-  if (hit.distance_m > 0.1 * a)
-    throw std::invalid_argument("ToolContact.point is not on the organ surface (distance " +
-                                std::to_string(hit.distance_m) + " m)");
-  const Eigen::Vector3d centre = hit.point, normal = hit.normal;
+  const double off_surface = (surface.centre() - contact.point).norm();
+  if (off_surface > 0.1 * a)
+    throw std::invalid_argument("ToolContact.point is not on the organ surface (distance " + std::to_string(off_surface) +
+                                " m)");
+  const Eigen::Vector3d centre = surface.centre(), normal = surface.normal();
   const auto [t1, t2] = tangents(normal);
   // Spacing of N nodes in a half ball; nodes keep half a spacing off the cut and the surface
   // (those on them are placed there).
@@ -398,9 +404,10 @@ NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const Tool
   for (int k = 0; k < surface_count; ++k) {
     const double r = 0.97 * length * std::sqrt(static_cast<double>(k) / surface_count);
     const double phi = phase + golden * k;
-    const geometry::SurfaceProjection p = organ.project(centre + r * (std::cos(phi) * t1 + std::sin(phi) * t2));
-    if ((p.point - centre).norm() > length - 0.5 * spacing) continue;
-    add(p.point, r < a ? NodeKind::tool_patch : NodeKind::free_surface, p.normal);
+    Eigen::Vector3d point, n;
+    if (!surface.on_line(centre + r * (std::cos(phi) * t1 + std::sin(phi) * t2), -normal, point, n)) continue;
+    if ((point - centre).norm() > length - 0.5 * spacing) continue;
+    add(point, r < a ? NodeKind::tool_patch : NodeKind::free_surface, n);
   }
   // Cut: a Fibonacci lattice on the sphere, twice the count (about half of it lies in a
   // locally flat organ), kept half a spacing inside the organ surface.
@@ -408,7 +415,7 @@ NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const Tool
   rotation << t1, t2, normal;
   for (const Eigen::Vector3d& d : fibonacci_sphere(2 * cut_count, rotation)) {
     const Eigen::Vector3d x = centre + length * d;
-    if (organ.signed_distance(x) < -0.5 * spacing) add(x, NodeKind::cut, d);
+    if (surface.inside(x, 0.5 * spacing)) add(x, NodeKind::cut, d);
   }
   // Inside: Halton points in the ball, uniform in volume, off the surface and the cut.
   const int start = 1 + static_cast<int>(seed % 997) * 64;
@@ -417,7 +424,7 @@ NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const Tool
     const double z = 1 - 2 * halton(start + k, 3), phi = 2 * pi * halton(start + k, 5);
     const double s = std::sqrt(std::max(0.0, 1 - z * z));
     const Eigen::Vector3d x = centre + rho * (rotation * Eigen::Vector3d(s * std::cos(phi), s * std::sin(phi), z));
-    if (organ.signed_distance(x) < -0.5 * spacing) {
+    if (surface.inside(x, 0.5 * spacing)) {
       add(x, NodeKind::interior, Eigen::Vector3d::Zero());
       ++kept;
     }

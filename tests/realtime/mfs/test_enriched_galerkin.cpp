@@ -53,13 +53,14 @@ struct Built {
 Built build(const geometry::TriangleSurface& organ, const ToolContact& contact, int nodes, ExteriorCondition exterior,
             const Material& material = {}, std::uint64_t seed = 1) {
   Built out;
-  out.cloud = sprinkle_even_nodes(organ, contact, nodes, length, seed);
+  const LocalSurface surface(organ, contact.point, 1.3 * length);
+  out.cloud = sprinkle_even_nodes(surface, contact, nodes, length, seed);
   EnrichedSettings settings;
   settings.exterior = exterior;
   EnrichedQuadratures quadratures;
   PunchFrame frame;
   std::string failure;
-  EXPECT_TRUE(enriched_quadratures(organ, contact, length, settings, {}, quadratures, frame, failure)) << failure;
+  EXPECT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
   out.model = build_enriched_model(out.cloud, material, contact, quadratures, frame, settings,
                                    MlsSettings{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0});
   return out;

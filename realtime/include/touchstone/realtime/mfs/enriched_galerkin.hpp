@@ -13,8 +13,8 @@
 ///
 /// The patch and the outer boundary are held by Lagrange multipliers, so the tool force is part
 /// of the solution (the patch multiplier's resultant), not a post-processed traction:
-/// - patch: λ = Σ_k λ_k T_k(r/a) / √(a² − r²) (k = 0, 2, 4, and T₁ cos φ, T₁ sin φ), the
-///   normal component only for a frictionless tool, all three for a bonded one;
+/// - patch: λ = (λ₀ + λ₁ (r/a) cos φ + λ₂ (r/a) sin φ) / √(a² − r²), the normal component
+///   only for a frictionless tool, all three for a bonded one;
 /// - cut (and any clamped surface inside the ball): polynomials of degree ≤ 2 per component
 ///   plus σ(ψ_m)n, which the multiplier space must contain for the half-space solution to be
 ///   reproduced exactly.
@@ -33,6 +33,7 @@
 /// points suffice.
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
@@ -67,6 +68,8 @@ struct EnrichedSettings {
   /// grown just enough (locally; a global growth would couple far nodes and lock).
   int min_point_neighbours = 14;
   /// Quadrature of the MLS–MLS block (rays from the contact point, graded toward the tool).
+  /// These counts and the cut's are for N ≤ 40: build_local_model grows their angular counts as
+  /// ∛(N/40) beyond (finer shape functions need finer quadratures).
   int volume_radial_points = 8, volume_polar_points = 8, volume_azimuth_points = 16;
   /// Boundary quadratures of every ψ term and of the multipliers.
   int patch_radial_points = 6, patch_angular_points = 12;
@@ -121,12 +124,12 @@ std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& n
                                            const std::vector<const PatchQuadrature*>& points,
                                            int support_neighbours, int min_neighbours);
 
-/// The quadratures of the enriched model on `organ` (patch and free surface found along the
-/// tool axis; the cut sphere and the volume as in tool_force.hpp; clamped parts inside the
-/// ball from `clamped`, which may be empty). Also sets the punch frame: origin at the centre of
+/// The quadratures of the enriched model on the organ near the contact (patch and free surface
+/// found along the tool axis; the cut sphere and the volume by rays from the contact, graded
+/// toward the tool; clamped parts inside the ball from `clamped`, which may be empty). Also sets the punch frame: origin at the centre of
 /// the patch's rim circle, e₃ = the push direction. Fails (status) when the tool axis misses the
 /// organ near the contact, e.g. at an organ edge.
-bool enriched_quadratures(const geometry::TriangleSurface& organ, const ToolContact& contact, double local_radius_m,
+bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contact, double local_radius_m,
                           const EnrichedSettings& settings, const PatchQuadrature& clamped, EnrichedQuadratures& out,
                           PunchFrame& frame, std::string& failure);
 

@@ -5,6 +5,7 @@
 /// radius, and each node gets its collocation rows. Works on any closed triangle surface.
 
 #include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
 
 #include <Eigen/Core>
@@ -73,6 +74,9 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
 /// Throws std::invalid_argument for node_count outside [10, 5000] and for the contact
 /// problems sprinkle_nodes names.
 NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact, int node_count,
+                              double local_radius_m, std::uint64_t seed = 1);
+/// The same on a LocalSurface already made for this contact (reach ≥ L).
+NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& contact, int node_count,
                               double local_radius_m, std::uint64_t seed = 1);
 
 }  // namespace touchstone::realtime::mfs
