@@ -770,22 +770,6 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   for (const auto& contact : tool.choice_list("contact", names(patch_conditions), {"frictionless"}))
     study.contacts.push_back(value_of(patch_conditions, contact));
 
-  ConfigTable enriched = config.table("enriched");
-  mfs::EnrichedSettings& e = s.enriched;
-  e.exterior = read_choice(enriched, "exterior", exterior_conditions, e.exterior);
-  e.support_neighbours = read_int(enriched, "support_neighbours", e.support_neighbours);
-  e.min_point_neighbours = read_int(enriched, "min_point_neighbours", e.min_point_neighbours);
-  e.volume_radial_points = read_int(enriched, "volume_radial_points", e.volume_radial_points);
-  e.volume_polar_points = read_int(enriched, "volume_polar_points", e.volume_polar_points);
-  e.volume_azimuth_points = read_int(enriched, "volume_azimuth_points", e.volume_azimuth_points);
-  e.patch_radial_points = read_int(enriched, "patch_radial_points", e.patch_radial_points);
-  e.patch_angular_points = read_int(enriched, "patch_angular_points", e.patch_angular_points);
-  e.free_radial_points = read_int(enriched, "free_radial_points", e.free_radial_points);
-  e.free_azimuth_points = read_int(enriched, "free_azimuth_points", e.free_azimuth_points);
-  e.cut_polar_points = read_int(enriched, "cut_polar_points", e.cut_polar_points);
-  e.cut_azimuth_points = read_int(enriched, "cut_azimuth_points", e.cut_azimuth_points);
-  e.cut_multiplier_degree = read_int(enriched, "cut_multiplier_degree", e.cut_multiplier_degree);
-
   ConfigTable sprinkling = config.table("sprinkling");
   mfs::SprinklingSettings& sp = s.sprinkling;
   study.node_counts.clear();

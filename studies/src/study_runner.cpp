@@ -1588,6 +1588,13 @@ std::vector<double> mfs_force_ramp_N(const Eigen::Matrix3d& tool_stiffness_N_per
   return forces;
 }
 
+namespace {
+std::string value_or(const json& object, const char* key, const std::string& fallback) {
+  return object.is_object() && object.contains(key) && object.at(key).is_string() ? object.at(key).get<std::string>()
+                                                                                   : fallback;
+}
+}  // namespace
+
 AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direction, const json* previous) {
   AccuracyIndicator a;
   // A failed case has no result to judge: its status says what went wrong, and the numbers
@@ -1629,6 +1636,17 @@ AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direc
     a.flags.push_back("ill_conditioned");
   if (a.stiffness_ratio < stiffness_ratio_min || a.stiffness_ratio > stiffness_ratio_max)
     a.flags.push_back("stiffness_implausible");
+  const json& enriched = at_path(c, {"diagnostics", "enriched"});
+  if (enriched.is_object()) {
+    a.mls_energy_share = value_or_nan(enriched, "mls_energy_share");
+    const json& amplitudes = enriched.value("amplitudes_per_depth", json::array());
+    if (!amplitudes.empty() && amplitudes.at(0).is_number()) a.normal_amplitude = amplitudes.at(0).get<double>();
+    a.exterior_used = enriched.value("exterior_used", "");
+    if (a.mls_energy_share > mls_energy_share_limit) a.flags.push_back("mls_dominated");
+    if (a.normal_amplitude < normal_amplitude_min || a.normal_amplitude > normal_amplitude_max)
+      a.flags.push_back("amplitude_implausible");
+    if (a.exterior_used != value_or(params, "exterior", a.exterior_used)) a.flags.push_back("exterior_fallback");
+  }
   if (previous != nullptr && previous->value("status", "") == "ok") {
     const double f = axial(at_path(c, {"qoi", "force_N"}), d), f_previous = axial(at_path(*previous, {"qoi", "force_N"}), d);
     const double change = std::abs(f - f_previous) / std::abs(f);
@@ -1649,6 +1667,9 @@ json to_json(const AccuracyIndicator& a) {
           {"stiffness_ratio", number(a.stiffness_ratio)},
           {"force_change_from_previous_n", number(a.force_change_from_previous_n)},
           {"previous_node_count", a.previous_node_count},
+          {"mls_energy_share", number(a.mls_energy_share)},
+          {"normal_amplitude", number(a.normal_amplitude)},
+          {"exterior_used", a.exterior_used.empty() ? json(nullptr) : json(a.exterior_used)},
           {"flags", a.flags}};
 }
 

@@ -443,6 +443,36 @@ TEST_F(StudyFiles, ABadB1ProblemNamesTheFileTheKeyAndTheValue) {
   EXPECT_NE(m.find("problem.tool_radius = 0.0025 m must be < problem.body_radius / 2 = 0.002 m"), std::string::npos) << m;
 }
 
+TEST(AccuracyIndicator, EnrichedCasesAreJudgedByWhatTheEnrichmentCarries) {
+  const Eigen::Vector3d d(0, 0, -1);
+  const json params{{"min_rcond_threshold", 1e-12}, {"youngs_modulus_Pa", 1e4}, {"poisson_ratio", 0.45},
+                    {"tool_radius_m", 0.0025}, {"depth_m", 0.25e-3}, {"exterior", "body_aware"}};
+  // B3-like: the MLS part carries 8 % of the energy, the clamp raises the amplitude to 1.39.
+  json ok{{"qoi", {{"force_N", {0.0, 0.0, -0.022}},
+                   {"forces_by_method_N", {{"reaction", nullptr}, {"energy_along_tool", 0.022},
+                                           {"traction_integral", {0.0, 0.0, -0.022}}, {"paper_partition", nullptr}}},
+                   {"min_rcond", 1e-6}}},
+          {"diagnostics",
+           {{"max_support_scale_used", 1.0},
+            {"enriched", {{"exterior_used", "body_aware"}, {"mls_energy_share", 0.08}, {"amplitudes_per_depth", {1.39}}}}}},
+          {"params", params}};
+  AccuracyIndicator a = accuracy_indicator(ok, d);
+  EXPECT_DOUBLE_EQ(a.mls_energy_share, 0.08);
+  EXPECT_DOUBLE_EQ(a.normal_amplitude, 1.39);
+  EXPECT_EQ(a.exterior_used, "body_aware");
+  EXPECT_TRUE(a.flags.empty());
+  // The MLS part carries half the energy, the amplitude is 3, and the atlas had no answer.
+  json bad = ok;
+  bad["diagnostics"]["enriched"] = {{"exterior_used", "half_space"}, {"mls_energy_share", 0.5}, {"amplitudes_per_depth", {3.0}}};
+  a = accuracy_indicator(bad, d);
+  EXPECT_EQ(a.flags, (std::vector<std::string>{"mls_dominated", "amplitude_implausible", "exterior_fallback"}));
+  // Asking for the half-space and getting it is no fallback.
+  bad["params"]["exterior"] = "half_space";
+  bad["diagnostics"]["enriched"]["mls_energy_share"] = 0.1;
+  bad["diagnostics"]["enriched"]["amplitudes_per_depth"] = {1.0};
+  EXPECT_TRUE(accuracy_indicator(bad, d).flags.empty());
+}
+
 TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {
   const Eigen::Vector3d d(0, 0, -1);
   // A clean Galerkin-like case: reaction and energy 5 % apart, well-conditioned, no growth.

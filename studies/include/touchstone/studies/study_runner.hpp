@@ -171,10 +171,22 @@ struct AccuracyIndicator {
   /// (which ended ok): the series' own convergence in N. NaN: no such case.
   double force_change_from_previous_n = std::numeric_limits<double>::quiet_NaN();
   int previous_node_count = 0;  ///< its requested N (0: none)
+  /// The enriched model only (NaN / empty otherwise): the share of the strain energy its MLS
+  /// part carries, the normal punch field's amplitude per metre of depth (1 on a half-space;
+  /// the clamped cut at 5a raises it to about 1.4), and the exterior it used.
+  double mls_energy_share = std::numeric_limits<double>::quiet_NaN();
+  double normal_amplitude = std::numeric_limits<double>::quiet_NaN();
+  std::string exterior_used;
   /// "force_methods_disagree", "supports_grew", "ill_conditioned", "stiffness_implausible",
-  /// "unconverged_in_n"
+  /// "unconverged_in_n"; enriched: "mls_dominated" (the singular fields carry too little: the
+  /// contact is unlike a punch on a smooth body), "amplitude_implausible", "exterior_fallback"
+  /// (body_aware was asked, the half-space was used: no organ atlas sample near the contact)
   std::vector<std::string> flags;
 };
+/// Flag "mls_dominated" above this MLS share of the energy: about 0.08 on B3 at 5a.
+constexpr double mls_energy_share_limit = 0.35;
+/// Flag "amplitude_implausible" outside these bounds of the normal amplitude per metre of depth.
+constexpr double normal_amplitude_min = 0.5, normal_amplitude_max = 2.5;
 /// Flag "force_methods_disagree" above this spread: default Galerkin cases measured 2–11 %
 /// at N ≥ 100 on B3, broken ones (tiny supports that grew: +6656 % error) 69 %.
 constexpr double force_method_spread_limit = 0.15;
