@@ -120,6 +120,14 @@ double chebyshev(int k, double t) { return std::cos(k * std::acos(std::clamp(t, 
 
 }  // namespace
 
+std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame) {
+  // A frictionless tool pushing along the patch normal loads only the normal mode; a bonded or
+  // oblique one also shears the patch (its constraint traction along d has a tangential part).
+  const bool along_normal = contact.direction.normalized().dot(frame.axes.col(2)) > std::cos(1.0 * 3.14159265358979323846 / 180);
+  if (contact.condition == PatchCondition::frictionless && along_normal) return {PunchMode::normal};
+  return {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
+}
+
 int cut_multiplier_degree(const EnrichedSettings& settings, std::size_t node_count) {
   if (settings.cut_multiplier_degree >= 0) return settings.cut_multiplier_degree;
   // Few nodes cannot satisfy many constraints without locking; many nodes would use a poor
@@ -198,9 +206,11 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
                           PunchFrame& frame, std::string& failure) {
   out = EnrichedQuadratures{};
   const double a = contact.radius_m, length = local_radius_m;
+  // The patch is the disk of radius a about the contact on the organ, centred on its normal: the
+  // punch fields live in its frame (e₃ the inward normal), whatever direction the tool pushes.
   AxisFrame f;
   f.centre = surface.centre();
-  f.push = contact.direction.normalized();
+  f.push = -surface.normal();
   const PunchFrame axes = PunchFrame::along(f.centre, f.push);
   f.t1 = axes.axes.col(0);
   f.t2 = axes.axes.col(1);
@@ -346,9 +356,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
   EnrichedModel model;
   model.frame = frame;
   model.exterior = settings.exterior;
-  model.modes = {PunchMode::normal};
+  model.modes = enrichment_modes(contact, frame);
   const bool bonded = contact.condition == PatchCondition::bonded;
-  if (bonded) model.modes = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
   const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
   const Eigen::Index m = static_cast<Eigen::Index>(model.modes.size());
   const Eigen::Index n = 3 * n_nodes + m;

@@ -384,9 +384,13 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
   Eigen::MatrixXd exterior_stiffness;
   model.exterior_used = to_string(enriched.exterior);
   if (enriched.exterior == ExteriorCondition::body_aware) {
-    const int modes = model.contact.condition == PatchCondition::bonded ? 3 : 1;
+    // The exterior's stiffness is in the modes of the patch frame: ask for it along the patch
+    // normal, not along the tool.
+    ToolContact along_patch = model.contact;
+    along_patch.direction = frame.axes.col(2);
+    const int modes = static_cast<int>(enrichment_modes(model.contact, frame).size());
     std::string why_not = "no organ atlas was given";
-    if (!exterior || !exterior(model.contact, length, model.material, modes, exterior_stiffness, why_not)) {
+    if (!exterior || !exterior(along_patch, length, model.material, modes, exterior_stiffness, why_not)) {
       enriched.exterior = ExteriorCondition::half_space;
       model.exterior_used = to_string(enriched.exterior);
       model.exterior_note = why_not;

@@ -41,6 +41,20 @@ LocalSurface::LocalSurface(const geometry::TriangleSurface& organ, const Eigen::
   t1_ = normal_.cross(helper).normalized();
   t2_ = normal_.cross(t1_);
 
+  // Fit, then once more in the frame of the fitted surface itself: the closest feature's
+  // pseudo-normal of a triangulation can be a fraction of a degree off the smooth surface's.
+  if (!fit(organ, reach_m)) return;
+  double du = 0, dv = 0;
+  const double d0 = depth(0, 0, &du, &dv);
+  centre_ -= d0 * normal_;
+  normal_ = (normal_ + du * t1_ + dv * t2_).normalized();
+  const Eigen::Vector3d helper2 = std::abs(normal_.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  t1_ = normal_.cross(helper2).normalized();
+  t2_ = normal_.cross(t1_);
+  fitted_ = fit(organ, reach_m);
+}
+
+bool LocalSurface::fit(const geometry::TriangleSurface& organ, double reach_m) {
   // The vertices within reach, in tangent coordinates, unless one faces away (a fold or the far
   // side of a thin organ: no height field there).
   const auto& vertices = organ.vertices();
@@ -49,12 +63,12 @@ LocalSurface::LocalSurface(const geometry::TriangleSurface& organ, const Eigen::
   for (std::size_t k = 0; k < vertices.size(); ++k) {
     const Eigen::Vector3d x = vertices[k] - centre_;
     if (x.squaredNorm() > reach_m * reach_m) continue;
-    if (normals[k].dot(normal_) < fold_cosine) return;
+    if (normals[k].dot(normal_) < fold_cosine) return false;
     local.emplace_back(x.dot(t1_), x.dot(t2_), -x.dot(normal_));
   }
   constexpr int terms = 15;
-  if (static_cast<int>(local.size()) < 2 * terms) return;
-  // Scaled coordinates keep the normal equations well conditioned.
+  if (static_cast<int>(local.size()) < 2 * terms) return false;
+  // Scaled coordinates keep the least-squares problem well conditioned.
   Eigen::MatrixXd a(static_cast<Eigen::Index>(local.size()), terms);
   Eigen::VectorXd b(static_cast<Eigen::Index>(local.size()));
   double row[terms];
@@ -67,13 +81,13 @@ LocalSurface::LocalSurface(const geometry::TriangleSurface& organ, const Eigen::
   residual_m_ = (a * scaled - b).cwiseAbs().maxCoeff();
   if (!scaled.allFinite() || !(residual_m_ < 1e-3 * reach_m)) {
     residual_m_ = 0;
-    return;
+    return false;
   }
   // Back to metres: the coefficient of u^i v^j divides by reach^(i+j).
   int index = 0;
   for (int total = 0; total <= fit_degree; ++total)
     for (int i = total; i >= 0; --i, ++index) coefficients_[index] = scaled[index] / std::pow(reach_m, total);
-  fitted_ = true;
+  return true;
 }
 
 double LocalSurface::depth(double u, double v, double* du, double* dv) const {

@@ -93,7 +93,7 @@ struct EnrichedQuadratures {
 /// The assembled and solved enriched model for the three unit tool translations.
 struct EnrichedModel {
   PunchFrame frame;
-  std::vector<PunchMode> modes;  ///< the enrichment fields (normal; + tangential for bonded)
+  std::vector<PunchMode> modes;  ///< the enrichment fields (enrichment_modes())
   ExteriorCondition exterior = ExteriorCondition::clamped;
   /// K_ext [N/m] in mode order: the exterior energy ½ cᵀ K_ext c (zero for clamped).
   Eigen::MatrixXd exterior_stiffness_N_per_m;
@@ -113,6 +113,10 @@ struct EnrichedModel {
   std::string status = "ok";
   bool ok() const { return status == "ok"; }
 };
+
+/// The enrichment fields for a contact: the normal mode alone for a frictionless tool pushing
+/// along the patch normal (within 1°), all three modes for a bonded or oblique one.
+std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame);
 
 /// The cut multipliers' polynomial degree for a cloud of node_count nodes: the setting, or for
 /// −1: 1 below 40 nodes, 2 up to 120, 3 beyond.
@@ -135,7 +139,7 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
 
 /// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
 /// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (m × m in
-/// mode order, m = 1 frictionless, 3 bonded) and ignored otherwise.
+/// mode order, m = enrichment_modes().size()) and ignored otherwise.
 EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quadratures, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,

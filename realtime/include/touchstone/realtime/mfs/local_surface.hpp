@@ -23,7 +23,8 @@ class LocalSurface {
   LocalSurface(const geometry::TriangleSurface& organ, const Eigen::Vector3d& contact_point_m, double reach_m);
 
   bool fitted() const { return fitted_; }
-  /// The contact point on the surface and the outward normal there.
+  /// The contact point on the surface and the outward normal there (of the fitted surface when
+  /// fitted, else of the closest feature).
   const Eigen::Vector3d& centre() const { return centre_; }
   const Eigen::Vector3d& normal() const { return normal_; }
   /// Largest fit residual over the vertices used [m] (0 when not fitted).
@@ -39,6 +40,8 @@ class LocalSurface {
 
  private:
   double depth(double u, double v, double* du = nullptr, double* dv = nullptr) const;
+  /// Least-squares fit of the depth in the current frame; false when not a height field.
+  bool fit(const geometry::TriangleSurface& organ, double reach_m);
 
   const geometry::TriangleSurface& organ_;
   Eigen::Vector3d centre_, normal_, t1_, t2_;
