@@ -2,6 +2,7 @@
 
 #include "touchstone/fem/richardson.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
+#include "touchstone/realtime/mfs/quadrature_rules.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/version.hpp"
 
@@ -56,29 +57,6 @@ realtime::mfs::Material realtime_material(const fem::Material& m) {
   return out;
 }
 
-/// Gauss–Legendre nodes and weights on [0, 1] by Newton's method on P_n.
-void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
-  x.assign(n, 0.0);
-  w.assign(n, 0.0);
-  for (int i = 0; i < n; ++i) {
-    double t = std::cos(pi * (i + 0.75) / (n + 0.5));
-    double derivative = 1;
-    for (int iteration = 0; iteration < 100; ++iteration) {
-      double p0 = 1, p1 = t;
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2 * k - 1) * t * p1 - (k - 1) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      derivative = n * (t * p1 - p0) / (t * t - 1);
-      const double step = p1 / derivative;
-      t -= step;
-      if (std::abs(step) < 1e-15) break;
-    }
-    x[i] = 0.5 * (1 - t);
-    w[i] = 1.0 / ((1 - t * t) * derivative * derivative);  // 2/((1−t²)P'²) on [−1, 1], halved
-  }
-}
 
 constexpr std::array<PunchMode, 3> mode_order{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
 
@@ -146,7 +124,7 @@ Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, doub
   material.validate();
   const PunchFrame frame = PunchFrame::along(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
   std::vector<double> x, w;
-  gauss_legendre(polar_points, x, w);
+  realtime::mfs::gauss_legendre(polar_points, x, w);
   const double l = local_radius_m;
   Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
   for (int i = 0; i < polar_points; ++i) {

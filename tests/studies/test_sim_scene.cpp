@@ -25,7 +25,7 @@ TEST(SimScene, ReadsTheShippedPalpationScene) {
   EXPECT_EQ(scene.generated_organ.shape, meshes::OrganShape::stomach);
   EXPECT_EQ(scene.generated_organ.target_triangles, 20000);
   EXPECT_EQ(scene.settings.material.youngs_modulus_Pa, 10e3);
-  EXPECT_EQ(scene.settings.model.formulation, realtime::mfs::Formulation::galerkin);
+  EXPECT_EQ(scene.settings.model.formulation, realtime::mfs::Formulation::enriched);
   EXPECT_EQ(scene.settings.model.sprinkling.node_count, 35);
   EXPECT_DOUBLE_EQ(scene.settings.tool.tip_radius_m, 2.5e-3);
   EXPECT_EQ(scene.device, DeviceKind::scripted);
