@@ -4,6 +4,7 @@
 #include "hemisphere_fixture.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
+#include "touchstone/realtime/mfs/local_model.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 
 #include <gtest/gtest.h>
@@ -106,6 +107,62 @@ TEST(EnrichedGalerkin, HemisphereLocalDomainMatchesItsFem) {
     // The clamp raises the amplitude above the half-space's 1 (about 1.39).
     EXPECT_GT(-b.model.unit_response(3 * static_cast<Eigen::Index>(b.cloud.size()), 2), 1.2);
   }
+}
+
+// Bad input and hard contacts end in a named error or a status, never in NaN.
+TEST(EnrichedLocalModel, BadInputIsNamedAndHardContactsEndInAStatus) {
+  LocalModelSettings settings;  // the enriched default
+  settings.sprinkling.node_count = 30;
+  settings.sprinkling.local_radius_m = length;
+  const ToolContact contact = top_contact(PatchCondition::frictionless);
+  // ν = 0.5 and a tool wider than L/2.
+  Material incompressible;
+  incompressible.poisson_ratio = 0.5;
+  try {
+    build_local_model(flat_body(), contact, incompressible, settings);
+    ADD_FAILURE() << "nu = 0.5 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("poisson_ratio"), std::string::npos) << e.what();
+  }
+  ToolContact wide = contact;
+  wide.radius_m = 0.6 * length;
+  try {
+    build_local_model(flat_body(), wide, Material{}, settings);
+    ADD_FAILURE() << "a tool radius > L/2 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("radius_m"), std::string::npos) << e.what();
+  }
+  // Near the cylinder's rim the local ball leaves the body: whatever the model says, it says it
+  // with finite numbers or a status.
+  for (const double offset : {0.5, 0.8, 0.95}) {
+    ToolContact edge = contact;
+    edge.point = Eigen::Vector3d(offset * 8 * length, 0, 0);
+    const LocalModel model = build_local_model(flat_body(), edge, Material{}, settings);
+    if (model.ok())
+      EXPECT_TRUE(model.tool_stiffness_N_per_m.allFinite()) << "offset " << offset;
+    else
+      EXPECT_FALSE(model.status.empty());
+  }
+  // body_aware without an answer from the atlas: the half-space exterior, and the model says so.
+  const ExteriorStiffnessSource no_sample = [](const ToolContact&, double, const Material&, int, Eigen::MatrixXd&,
+                                               std::string& why) {
+    why = "no atlas sample within 12.5 mm of the contact";
+    return false;
+  };
+  const LocalModel fallback = build_local_model(flat_body(), contact, Material{}, settings, {}, no_sample);
+  ASSERT_TRUE(fallback.ok()) << fallback.status;
+  EXPECT_EQ(fallback.exterior_used, "half_space");
+  EXPECT_EQ(fallback.exterior_note, "no atlas sample within 12.5 mm of the contact");
+  // …and with one, the body-aware exterior it gives: twice the half-space's exterior stiffens.
+  const ExteriorStiffnessSource stiff = [](const ToolContact&, double, const Material&, int modes, Eigen::MatrixXd& k,
+                                           std::string&) {
+    k = Eigen::MatrixXd::Identity(modes, modes) * 2 * 14.49 * (Material{}.youngs_modulus_Pa / 1e4);
+    return true;
+  };
+  const LocalModel body = build_local_model(flat_body(), contact, Material{}, settings, {}, stiff);
+  ASSERT_TRUE(body.ok()) << body.status;
+  EXPECT_EQ(body.exterior_used, "body_aware");
+  EXPECT_GT(body.tool_stiffness_N_per_m(2, 2), 1.02 * fallback.tool_stiffness_N_per_m(2, 2));
 }
 
 }  // namespace
