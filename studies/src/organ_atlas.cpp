@@ -58,7 +58,7 @@ realtime::mfs::Material realtime_material(const fem::Material& m) {
 }
 
 
-constexpr std::array<PunchMode, 3> mode_order{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
+constexpr std::array<PunchMode, 3> mode_order{{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2}};
 
 int mode_count(AtlasModes modes) { return modes == AtlasModes::normal ? 1 : 3; }
 

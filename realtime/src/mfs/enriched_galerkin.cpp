@@ -22,18 +22,26 @@ struct AxisFrame {
   Eigen::Vector3d radial(double phi) const { return std::cos(phi) * t1 + std::sin(phi) * t2; }
 };
 
+/// Unit directions at polar angle θ from the inward normal −n and azimuth φ about it.
+struct PolarDirections {
+  Eigen::Vector3d normal, t1, t2;
+  explicit PolarDirections(const Eigen::Vector3d& outward_normal) : normal(outward_normal) {
+    const Eigen::Vector3d helper = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    t1 = normal.cross(helper).normalized();
+    t2 = normal.cross(t1);
+  }
+  Eigen::Vector3d operator()(double theta, double phi) const {
+    return -std::cos(theta) * normal + std::sin(theta) * (std::cos(phi) * t1 + std::sin(phi) * t2);
+  }
+};
+
 /// Rays from the contact point, cut where they leave the organ or reach L; Gauss–Legendre in
 /// t with ρ = a (e^{κt} − 1) (graded toward the tool like the node cloud); the polar range per
 /// azimuth ends where a short step along the ray already leaves the organ.
 PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double tool_radius_m, double length,
                                            const EnrichedSettings& s) {
   const Eigen::Vector3d& centre = surface.centre();
-  const Eigen::Vector3d& normal = surface.normal();
-  const Eigen::Vector3d helper = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d t1 = normal.cross(helper).normalized(), t2 = normal.cross(t1);
-  const auto direction = [&](double theta, double phi) {
-    return Eigen::Vector3d(-std::cos(theta) * normal + std::sin(theta) * (std::cos(phi) * t1 + std::sin(phi) * t2));
-  };
+  const PolarDirections direction(surface.normal());
   const auto inside = [&](const Eigen::Vector3d& x) { return surface.inside(x); };
   std::vector<double> xr, wr, xt, wt;
   gauss_legendre(s.volume_radial_points, xr, wr);
@@ -68,12 +76,7 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
 /// inward normal, Gauss–Legendre in the polar angle up to where the sphere leaves the organ.
 PatchQuadrature enriched_cut_quadrature(const LocalSurface& surface, double length, const EnrichedSettings& s) {
   const Eigen::Vector3d& centre = surface.centre();
-  const Eigen::Vector3d& normal = surface.normal();
-  const Eigen::Vector3d helper = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d t1 = normal.cross(helper).normalized(), t2 = normal.cross(t1);
-  const auto direction = [&](double theta, double phi) {
-    return Eigen::Vector3d(-std::cos(theta) * normal + std::sin(theta) * (std::cos(phi) * t1 + std::sin(phi) * t2));
-  };
+  const PolarDirections direction(surface.normal());
   std::vector<double> x, w;
   gauss_legendre(s.cut_polar_points, x, w);
   PatchQuadrature q;
