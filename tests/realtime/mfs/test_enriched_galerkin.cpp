@@ -76,6 +76,8 @@ TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
   for (const int nodes : {20, 35, 60, 100, 200, 400}) {
     const Built b = build(flat_body(), top_contact(PatchCondition::frictionless), nodes, ExteriorCondition::half_space);
     ASSERT_TRUE(b.model.ok()) << b.model.status;
+    std::printf("half-space, frictionless: N = %zu  k/k_exact - 1 = %+.1e\n", b.cloud.size(),
+                b.model.tool_stiffness_N_per_m(2, 2) / exact - 1);
     EXPECT_NEAR(b.model.tool_stiffness_N_per_m(2, 2) / exact, 1.0, 1e-3) << "N = " << b.cloud.size();
     // and the amplitude is the half-space's, 1 per metre of depth (the pull e_z is −1 along d).
     EXPECT_NEAR(-b.model.unit_response(3 * static_cast<Eigen::Index>(b.cloud.size()), 2), 1.0, 1e-3);
@@ -83,15 +85,19 @@ TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
 }
 
 // The stuck tangential field neglects the ≈ 1 % normal–tangential coupling, so the MLS part must
-// carry it: within 1 % once it resolves the patch (measured: +12 % at N = 17, +1.7 % at N = 53).
+// carry it: within 1 % once it resolves the patch (asserted from N = 100; the smaller N are
+// printed, for the README).
 TEST(EnrichedGalerkin, HalfSpaceStuckTangentialForceWithinOnePercent) {
   const Material material;
   const double exact = punch_half_space_stiffness_N_per_m(PunchMode::tangential_1, a, material);
-  for (const int nodes : {200, 400}) {
+  for (const int nodes : {20, 35, 60, 100, 200, 400}) {
     const Built b = build(flat_body(), top_contact(PatchCondition::bonded), nodes, ExteriorCondition::half_space);
     ASSERT_TRUE(b.model.ok()) << b.model.status;
-    EXPECT_NEAR(b.model.tool_stiffness_N_per_m(0, 0) / exact, 1.0, 0.01) << "N = " << b.cloud.size();
-    EXPECT_NEAR(b.model.tool_stiffness_N_per_m(1, 1) / exact, 1.0, 0.01) << "N = " << b.cloud.size();
+    const double kxx = b.model.tool_stiffness_N_per_m(0, 0) / exact - 1, kyy = b.model.tool_stiffness_N_per_m(1, 1) / exact - 1;
+    std::printf("half-space, stuck tangential: N = %zu  k_xx %+.2f %%  k_yy %+.2f %%\n", b.cloud.size(), 100 * kxx, 100 * kyy);
+    if (nodes < 100) continue;
+    EXPECT_NEAR(kxx, 0.0, 0.01) << "N = " << b.cloud.size();
+    EXPECT_NEAR(kyy, 0.0, 0.01) << "N = " << b.cloud.size();
   }
 }
 
