@@ -1,14 +1,16 @@
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 
+#include "touchstone/realtime/mfs/gradient_gram.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <numeric>
 #include <stdexcept>
 
 namespace touchstone::realtime::mfs {
@@ -387,34 +389,24 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
     return true;
   };
 
-  // MLS–MLS: ∫ ε(N_a):C:ε(N_b) dV on the volume points; for an isotropic material the 3 × 3
-  // block of a pair is w (λ g_a g_bᵀ + μ g_b g_aᵀ + μ (g_a·g_b) I), g the shape gradients.
+  // MLS–MLS: ∫ ε(N_a):C:ε(N_b) dV on the volume points, through the gradient Gram matrix fed
+  // in a spatially coherent order (dense products over small node sets).
   Eigen::MatrixXd& K = model.stiffness;
   K.setZero(n, n);
   const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
-  for (std::size_t q = 0; q < quad.volume.points.size(); ++q) {
-    if (!evaluate(quad.volume.points[q], Derivatives::gradients))
+  const double mean_radius = std::accumulate(cloud.radii.begin(), cloud.radii.end(), 0.0) / static_cast<double>(n_nodes);
+  GradientGram gram(static_cast<int>(n_nodes));
+  for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
+    if (!evaluate(quad.volume.points[static_cast<std::size_t>(q)], Derivatives::gradients))
       return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes"
                                                            : eval.status == MlsStatus::singular_moments
                                                                ? "singular moment matrix"
                                                                : "non-finite input") +
                   ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " +
                   std::to_string(q));
-    const double w = quad.volume.weights[q];
-    const std::size_t k = eval.neighbours.size();
-    for (std::size_t i = 0; i < k; ++i) {
-      const Eigen::Vector3d gi = w * eval.gradient[i];
-      const Eigen::Index row = 3 * eval.neighbours[i];
-      for (std::size_t j = i; j < k; ++j) {
-        const Eigen::Vector3d& gj = eval.gradient[j];
-        const Eigen::Index col = 3 * eval.neighbours[j];
-        Eigen::Matrix3d block = lambda * gi * gj.transpose() + mu * gj * gi.transpose();
-        block.diagonal().array() += mu * gi.dot(gj);
-        K.block<3, 3>(row, col) += block;
-        if (j != i) K.block<3, 3>(col, row) += block.transpose();
-      }
-    }
+    gram.add(eval.neighbours, eval.gradient, quad.volume.weights[static_cast<std::size_t>(q)]);
   }
+  gram.add_isotropic_stiffness(lambda, mu, K);
   model.volume_points = static_cast<int>(quad.volume.points.size());
 
   // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
@@ -572,25 +564,38 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
     }
   }
 
-  // KKT [K Bᵀ; B 0] [x; y] = [0; G U], multipliers λ = −y. Rows are scaled to K's magnitude.
+  // KKT [K Bᵀ; B 0] [x; y] = [0; G U], multipliers λ = −y, rows scaled to K's magnitude.
+  // Solved through the augmented stiffness K_ρ = K + ρ BᵀB (the same solution, since Bx = G),
+  // which is positive definite exactly when the KKT solution is unique: one Cholesky of the
+  // n × n K_ρ and a c × c Schur complement S = B K_ρ⁻¹ Bᵀ, instead of an LU of the indefinite
+  // (n + c) × (n + c) system. With Z = K_ρ⁻¹ Bᵀ: x = Z S⁻¹ G, y = ρ G − S⁻¹ G.
   const Eigen::Index c = static_cast<Eigen::Index>(rows.size());
   model.multipliers = static_cast<int>(c);
   const double k_scale = K.diagonal().head(3 * n_nodes).cwiseAbs().maxCoeff();
-  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + c, n + c);
-  Eigen::MatrixXd right = Eigen::MatrixXd::Zero(n + c, 3);
+  Eigen::MatrixXd constraints(c, n), targets(c, 3);
   std::vector<double> row_scale(static_cast<std::size_t>(c));
-  kkt.topLeftCorner(n, n) = K;
   for (Eigen::Index r = 0; r < c; ++r) {
     const double norm = rows[static_cast<std::size_t>(r)].norm();
     const double s = norm > 0 ? k_scale / norm : 1.0;
     row_scale[static_cast<std::size_t>(r)] = s;
-    kkt.block(n + r, 0, 1, n) = s * rows[static_cast<std::size_t>(r)];
-    kkt.block(0, n + r, n, 1) = s * rows[static_cast<std::size_t>(r)].transpose();
-    right.row(n + r) = s * rhs[static_cast<std::size_t>(r)];
+    constraints.row(r) = s * rows[static_cast<std::size_t>(r)];
+    targets.row(r) = s * rhs[static_cast<std::size_t>(r)];
   }
-  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(kkt);
-  const Eigen::MatrixXd solution = lu.solve(right);
-  model.kkt_relative_residual = (kkt * solution - right).norm() / right.norm();
+  const double rho = k_scale > 0 ? 1 / k_scale : 1.0;
+  Eigen::MatrixXd augmented = K;
+  augmented.selfadjointView<Eigen::Lower>().rankUpdate(constraints.transpose(), rho);
+  const Eigen::LLT<Eigen::MatrixXd> cholesky(augmented.selfadjointView<Eigen::Lower>());
+  if (cholesky.info() != Eigen::Success)
+    return fail("the enriched system is singular: the constraints leave a zero-energy mode free");
+  const Eigen::MatrixXd z = cholesky.solve(constraints.transpose());
+  const Eigen::MatrixXd schur = constraints * z;
+  const Eigen::MatrixXd s_inverse_g = schur.ldlt().solve(targets);
+  Eigen::MatrixXd solution(n + c, 3);
+  solution.topRows(n) = z * s_inverse_g;
+  solution.bottomRows(c) = rho * targets - s_inverse_g;
+  const double residual = std::sqrt((K * solution.topRows(n) + constraints.transpose() * solution.bottomRows(c)).squaredNorm() +
+                                    (constraints * solution.topRows(n) - targets).squaredNorm());
+  model.kkt_relative_residual = residual / targets.norm();
   if (!solution.allFinite() || !(model.kkt_relative_residual < 1e-8))
     return fail("the enriched system is singular or too ill-conditioned: relative residual " +
                 std::to_string(model.kkt_relative_residual));

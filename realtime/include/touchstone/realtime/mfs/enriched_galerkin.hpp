@@ -29,10 +29,11 @@
 ///
 /// Every ψ term is a boundary integral, because div σ(ψ) = 0: ∫_Ω ε(v):σ(ψ) dV = ∮_∂Ω v·σ(ψ)n dA
 /// over the patch, the free surface, the cut and any clamped part. Only the MLS–MLS block needs
-/// a volume quadrature, and since the MLS part carries a small share of the energy a few hundred
-/// points suffice.
+/// a volume quadrature (graded Gauss rules on rays from the contact, EnrichedSettings; it is
+/// assembled through the gradient Gram matrix, gradient_gram.hpp), and the KKT system is solved
+/// through a Cholesky factorisation of the augmented stiffness and a small Schur complement.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"

@@ -1,0 +1,123 @@
+/// @file
+/// The gradient Gram matrix of the MLS–MLS stiffness, in dense batches.
+
+#include "touchstone/realtime/mfs/gradient_gram.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+namespace touchstone::realtime::mfs {
+
+GradientGram::GradientGram(int node_count, int max_batch_points, double max_union_growth)
+    : node_count_(node_count), max_batch_points_(max_batch_points), max_union_growth_(max_union_growth) {
+  if (node_count < 0 || max_batch_points < 1 || !(max_union_growth >= 1))
+    throw std::invalid_argument("GradientGram: node_count must be ≥ 0, max_batch_points ≥ 1 and max_union_growth ≥ 1");
+  gram_lower_.setZero(3 * node_count, 3 * node_count);
+  slot_.assign(static_cast<std::size_t>(node_count), -1);
+  batch_nodes_.resize(static_cast<std::size_t>(max_batch_points));
+  batch_gradients_.resize(static_cast<std::size_t>(max_batch_points));
+}
+
+void GradientGram::add(const std::vector<int>& nodes, const std::vector<Eigen::Vector3d>& gradients_per_m,
+                       double weight_m3) {
+  int fresh = 0;
+  for (int node : nodes) fresh += slot_[static_cast<std::size_t>(node)] < 0 ? 1 : 0;
+  const int widest = std::max(batch_widest_, static_cast<int>(nodes.size()));
+  if (batch_size_ == max_batch_points_ ||
+      (batch_size_ > 0 && static_cast<double>(union_nodes_.size() + fresh) > max_union_growth_ * widest))
+    flush();
+  batch_widest_ = std::max(batch_widest_, static_cast<int>(nodes.size()));
+  const double root_weight = std::sqrt(std::max(weight_m3, 0.0));
+  std::vector<Eigen::Vector3d>& g = batch_gradients_[static_cast<std::size_t>(batch_size_)];
+  g.resize(gradients_per_m.size());
+  for (std::size_t k = 0; k < gradients_per_m.size(); ++k) g[k] = root_weight * gradients_per_m[k];
+  batch_nodes_[static_cast<std::size_t>(batch_size_)] = nodes;
+  for (int node : nodes)
+    if (slot_[static_cast<std::size_t>(node)] < 0) {
+      slot_[static_cast<std::size_t>(node)] = 0;  // marked; numbered in flush()
+      union_nodes_.push_back(node);
+    }
+  ++batch_size_;
+}
+
+void GradientGram::flush() {
+  if (batch_size_ == 0) return;
+  // Slots in ascending node order, so that the local lower triangle maps into the global one.
+  std::sort(union_nodes_.begin(), union_nodes_.end());
+  const int u = static_cast<int>(union_nodes_.size());
+  for (int s = 0; s < u; ++s) slot_[static_cast<std::size_t>(union_nodes_[static_cast<std::size_t>(s)])] = s;
+  local_gradients_.setZero(3 * u, batch_size_);
+  for (int p = 0; p < batch_size_; ++p) {
+    const std::vector<int>& nodes = batch_nodes_[static_cast<std::size_t>(p)];
+    const std::vector<Eigen::Vector3d>& g = batch_gradients_[static_cast<std::size_t>(p)];
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      const int s = slot_[static_cast<std::size_t>(nodes[k])];
+      for (int i = 0; i < 3; ++i) local_gradients_(i * u + s, p) = g[k](i);
+    }
+  }
+  local_gram_.setZero(3 * u, 3 * u);
+  local_gram_.selfadjointView<Eigen::Lower>().rankUpdate(local_gradients_);
+  for (int c = 0; c < 3 * u; ++c) {
+    const Eigen::Index gc = (c / u) * node_count_ + union_nodes_[static_cast<std::size_t>(c % u)];
+    for (int r = c; r < 3 * u; ++r)
+      gram_lower_((r / u) * node_count_ + union_nodes_[static_cast<std::size_t>(r % u)], gc) += local_gram_(r, c);
+  }
+  for (int node : union_nodes_) slot_[static_cast<std::size_t>(node)] = -1;
+  union_nodes_.clear();
+  batch_size_ = 0;
+  batch_widest_ = 0;
+}
+
+Eigen::MatrixXd GradientGram::gram() {
+  flush();
+  Eigen::MatrixXd full = gram_lower_.selfadjointView<Eigen::Lower>();
+  return full;
+}
+
+void GradientGram::add_isotropic_stiffness(double lambda_Pa, double mu_Pa, Eigen::MatrixXd& stiffness) {
+  const Eigen::MatrixXd a = gram();
+  const Eigen::Index n = node_count_;
+  if (stiffness.rows() < 3 * n || stiffness.cols() < 3 * n)
+    throw std::invalid_argument("GradientGram: the stiffness matrix is smaller than 3 × node_count");
+  const Eigen::MatrixXd trace = a.topLeftCorner(n, n) + a.block(n, n, n, n) + a.bottomRightCorner(n, n);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (Eigen::Index b = 0; b < n; ++b)
+        for (Eigen::Index r = 0; r < n; ++r) {
+          double v = lambda_Pa * a(i * n + r, j * n + b) + mu_Pa * a(j * n + r, i * n + b);
+          if (i == j) v += mu_Pa * trace(r, b);
+          stiffness(3 * r + i, 3 * b + j) += v;
+        }
+}
+
+std::vector<int> sort_points_spatially(const std::vector<Eigen::Vector3d>& points, double cell_m) {
+  std::vector<int> order(points.size());
+  std::iota(order.begin(), order.end(), 0);
+  if (points.empty() || !(cell_m > 0)) return order;
+  Eigen::Vector3d low = points.front();
+  for (const Eigen::Vector3d& x : points) low = low.cwiseMin(x);
+  // 21 bits per axis: interleaved into one 63-bit key.
+  const auto spread = [](std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  std::vector<std::uint64_t> key(points.size());
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const Eigen::Vector3d cell = ((points[p] - low) / cell_m).array().floor().min(2097151.0).max(0.0);
+    key[p] = spread(static_cast<std::uint64_t>(cell.x())) | spread(static_cast<std::uint64_t>(cell.y())) << 1 |
+             spread(static_cast<std::uint64_t>(cell.z())) << 2;
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int l, int r) { return key[static_cast<std::size_t>(l)] < key[static_cast<std::size_t>(r)]; });
+  return order;
+}
+
+}  // namespace touchstone::realtime::mfs
