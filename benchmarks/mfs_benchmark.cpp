@@ -1,6 +1,6 @@
-// The real-time MFS local model (DESIGN.md §4, targets in §11) on a closed sphere of radius
-// R = 50 mm (icosphere level 5, 20 480 triangles), the tool (a = 2.5 mm) at the top pole pushing
-// along −z, E = 10 kPa, ν = 0.45, local radius L = 12.5 mm:
+// The real-time MFS local model (targets: 34 nodes ≤ 20 µs, 200 nodes ≤ 1 ms) on a closed sphere
+// of radius R = 50 mm (icosphere level 5, 20 480 triangles), the tool (a = 2.5 mm) at the top pole
+// pushing along −z, E = 10 kPa, ν = 0.45, local radius L = 12.5 mm:
 //   BM_Build/<N>/<solver>/oversampling:<v>  the whole model update (sprinkle, shape functions,
 //                                           assembly, factorisation, condensation to K_t)
 //   BM_PaperMode34                          the paper's 34-node model (its 3.6 ms row; target 20 µs)
@@ -8,13 +8,14 @@
 //                                           cloud sprinkled once: the build without sprinkler or force maps
 //   BM_HapticTick                           F = K_t U_tool, once per haptic tick
 //   BM_SolveLocalModel/<N>                  the full response to one U_tool from the unit responses
-// The reaction and energy force extractions are study diagnostics (tens of ms of quadrature), not
-// part of the model loop, so they are off everywhere here. Split times are counters in ms per
-// iteration; Google Benchmark prints 0.25 as "250m", i.e. 0.25 ms.
+// The reaction and energy force extractions are study diagnostics (volume and surface quadrature,
+// far slower than a model update), not part of the model loop, so they are off everywhere here.
+// Split times are counters in ms per iteration; Google Benchmark prints 0.25 as "250m", i.e.
+// 0.25 ms.
 //
 //   ./build/release/benchmarks/mfs_benchmark --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
@@ -30,9 +31,9 @@
 
 namespace {
 
-using touchstone::realtime::geometry::icosphere;
-using touchstone::realtime::geometry::TriangleMeshData;
-using touchstone::realtime::geometry::TriangleSurface;
+using touchstone::geometry::icosphere;
+using touchstone::geometry::TriangleMeshData;
+using touchstone::geometry::TriangleSurface;
 using touchstone::realtime::mfs::assemble_collocation;
 using touchstone::realtime::mfs::build_local_model;
 using touchstone::realtime::mfs::CollocationSolver;

@@ -1,5 +1,5 @@
-// Collision prediction (paper §3.1–3.2, DESIGN.md §11 target: ≤ 20 ns per haptic cycle once a
-// collision is predicted) and the tremor model:
+// Collision prediction (paper §3.1–3.2; target: ≤ 20 ns per haptic cycle once a collision is
+// predicted) and the tremor model:
 // - cheap_cycle: CollisionPredictor::step() while the tip wobbles inside its certified ball —
 //   one squared distance, one comparison, the history sample every 10th cycle, no query;
 // - prediction: one predict_collision() (closest point at the anchor is given; a ray cast and
@@ -18,8 +18,8 @@
 #include "touchstone/realtime/collision/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
 #include "touchstone/realtime/collision/tremor_model.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <benchmark/benchmark.h>
@@ -48,7 +48,7 @@ using touchstone::realtime::collision::TremorSettings;
 using touchstone::realtime::collision::TremorSpectrum;
 using touchstone::realtime::collision::predict_collision;
 using touchstone::realtime::collision::testing::BruteForceQueries;
-namespace geometry = touchstone::realtime::geometry;
+namespace geometry = touchstone::geometry;
 
 constexpr double radius_m = 0.05;
 

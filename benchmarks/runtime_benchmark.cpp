@@ -1,15 +1,16 @@
-// The haptic tick (DESIGN.md §11: prediction check + force from K_t + safety filter ≤ 1 µs p99).
+// The haptic tick (target: prediction check + force from K_t + safety filter ≤ 1 µs p99, headroom
+// for 10 kHz).
 // The real tick of the runtime is timed through its probe while a virtual-clock run plays a
 // scripted palpation on a 20,480-triangle sphere: every tick's duration goes into a list, and
 // the benchmark reports the median and p99 of free ticks (prediction: one distance, one
 // comparison) and of contact ticks (F = K_t U, cross-fades, release test), each including the
-// ~20–30 ns of the two clock reads that bracket it. Model builds (collocation, N = 40) happen
+// cost of the two clock reads that bracket it. Model builds (collocation, N = 40) happen
 // in the model steps, outside the timed ticks — but in the same thread on a virtual clock, so
-// a tick after a model step starts with colder caches than on the threaded runtime. About 1 %
-// of free ticks make a (re-)prediction or full detection near the surface (hierarchy queries).
-// Measured here first: p99 ≈ 2.4 µs, from page faults — the first tick to write each page of
-// the reserved force history; buffers are now touched before the run, and p99 fell to ~0.3 µs.
-#include "touchstone/realtime/geometry/icosphere.hpp"
+// a tick after a model step starts with colder caches than on the threaded runtime. A few free
+// ticks make a (re-)prediction or full detection near the surface (hierarchy queries).
+// Page faults dominated the p99 when the first tick to write each page of the reserved force
+// history paid for it, so the buffers are touched before the run (figures: see README, Measured).
+#include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
 #include "touchstone/realtime/runtime/simulation.hpp"
@@ -23,6 +24,7 @@
 namespace {
 
 using namespace touchstone::realtime;
+namespace geometry = touchstone::geometry;
 
 struct TickTimer {
   std::chrono::steady_clock::time_point start;

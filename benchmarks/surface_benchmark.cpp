@@ -5,8 +5,8 @@
 // normals, tree) is timed too.
 //
 //   ./build/release/benchmarks/surface_benchmark
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <benchmark/benchmark.h>
@@ -24,9 +24,9 @@ namespace {
 
 using Eigen::Vector3d;
 using Eigen::Vector3i;
-using touchstone::realtime::geometry::TriangleSurface;
-using touchstone::realtime::geometry::TriangleMeshData;
-using touchstone::realtime::geometry::icosphere;
+using touchstone::geometry::TriangleSurface;
+using touchstone::geometry::TriangleMeshData;
+using touchstone::geometry::icosphere;
 
 constexpr double radius_m = 0.05;
 constexpr int query_count = 4096;

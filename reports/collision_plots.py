@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots of `touchstone collision` (DESIGN.md §8): reads <out>/results.json, writes PNGs there.
+"""Plots of `touchstone collision`: reads <out>/results.json, writes PNGs there.
 
     /usr/bin/python3 reports/collision_plots.py output/collision_table1
 

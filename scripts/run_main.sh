@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job on a fresh Debian 12 machine: install, build, run the `hemisphere` study (MFS
 # against the converged deal.II reference: Table 2 replica, force error against N, displacement
-# error, error against run time, DESIGN.md §11 targets) and print where the report is.
+# error, error against run time, speed and accuracy targets) and print where the report is.
 # Extra arguments go to `touchstone study` (e.g. --only galerkin, --no-cache).
 #
 # The FEM references come from .cache/touchstone after the first run; finished MFS cases are

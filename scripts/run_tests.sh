@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$(nproc)"
 ctest --preset release -j "$(nproc)" "$@"
-# The threaded tests again under ThreadSanitizer (issue 6, acceptance 4): only their targets.
+# The threaded tests again under ThreadSanitizer (the threaded runtime must run clean): only
+# their targets.
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan --target threaded_tests -j "$(nproc)"
 ctest --preset tsan-threaded -j "$(nproc)"

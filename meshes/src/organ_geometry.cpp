@@ -1,7 +1,7 @@
 #include "touchstone/meshes/organ_geometry.hpp"
 
 #include "touchstone/meshes/surface_mesh_io.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "gmsh_session.hpp"
 
 #include <Eigen/Geometry>
@@ -288,8 +288,8 @@ OrganMesh generate(const OrganParameters& p) {
   }
   orient_outward(result.vertices, result.triangles);
 
-  const std::vector<realtime::geometry::SurfaceDefect> defects =
-      realtime::geometry::validate_surface(result.vertices, result.triangles, "the generated " + to_string(p.shape));
+  const std::vector<geometry::SurfaceDefect> defects =
+      geometry::validate_surface(result.vertices, result.triangles, "the generated " + to_string(p.shape));
   if (!defects.empty()) throw std::runtime_error(defects.front().message);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -46,7 +46,7 @@ namespace {
 
 using Eigen::Vector3d;
 using Eigen::Vector3i;
-using realtime::geometry::SurfaceLabels;
+using geometry::SurfaceLabels;
 
 std::string text_of(double value) {
   std::ostringstream text;
@@ -496,7 +496,7 @@ void weld(SurfaceMesh& mesh, double relative_tolerance) {
   }
   if (!(lower[0] <= upper[0])) return;
   const std::vector<int> representative =
-      realtime::geometry::coincident_vertices(mesh.vertices, relative_tolerance * (upper - lower).norm());
+      geometry::coincident_vertices(mesh.vertices, relative_tolerance * (upper - lower).norm());
   std::vector<int> new_index(mesh.vertices.size(), -1);
   std::vector<Vector3d> vertices;
   std::vector<long long> tags;
@@ -628,7 +628,7 @@ SurfaceMesh read_surface_mesh(const std::string& path, const SurfaceReadOptions&
   try {
     switch (mesh.format) {
       case SurfaceFormat::msh: {
-        realtime::geometry::SurfaceData data = realtime::geometry::read_msh_surface(path, options.msh_groups);
+        geometry::SurfaceData data = geometry::read_msh_surface(path, options.msh_groups);
         mesh.vertices = std::move(data.vertices);
         mesh.triangles = std::move(data.triangles);
         mesh.labels = std::move(data.labels);
@@ -660,8 +660,8 @@ SurfaceMesh read_surface_mesh(const std::string& path, const SurfaceReadOptions&
   return mesh;
 }
 
-std::vector<realtime::geometry::SurfaceDefect> validate_surface_mesh(const SurfaceMesh& mesh) {
-  return realtime::geometry::validate_surface(mesh.vertices, mesh.triangles, mesh.path, mesh.labels);
+std::vector<geometry::SurfaceDefect> validate_surface_mesh(const SurfaceMesh& mesh) {
+  return geometry::validate_surface(mesh.vertices, mesh.triangles, mesh.path, mesh.labels);
 }
 
 SurfaceStatistics surface_statistics(const std::vector<Vector3d>& vertices, const std::vector<Vector3i>& triangles) {
@@ -704,9 +704,9 @@ SurfaceStatistics surface_statistics(const std::vector<Vector3d>& vertices, cons
   return statistics;
 }
 
-realtime::geometry::TriangleSurface load_surface(const std::string& path, const SurfaceReadOptions& options) {
+geometry::TriangleSurface load_surface(const std::string& path, const SurfaceReadOptions& options) {
   SurfaceMesh mesh = read_surface_mesh(path, options);
-  return realtime::geometry::TriangleSurface(std::move(mesh.vertices), std::move(mesh.triangles), path, mesh.labels);
+  return geometry::TriangleSurface(std::move(mesh.vertices), std::move(mesh.triangles), path, mesh.labels);
 }
 
 void write_surface_mesh(const std::string& path, const std::vector<Vector3d>& vertices,

@@ -6,9 +6,9 @@
 // the element's order for smooth solutions (tested), and at first order in the edge size for the
 // punch (the r^(1/2) edge singularity), which the convergence study measures.
 //
-// Near-incompressibility (DESIGN.md §5.3): the option Formulation::mixed_p0disc adds a
-// discontinuous pressure per cell and eliminates it cell by cell (static condensation), so the
-// global system stays SPD in the displacement alone. The pressure is constant per cell (P0),
+// Near-incompressibility (pure-displacement P2 locks as ν → 0.5): the option
+// Formulation::mixed_p0disc adds a discontinuous pressure per cell and eliminates it cell by cell
+// (static condensation), so the global system stays SPD in the displacement alone. The pressure is constant per cell (P0),
 // not the linear P1disc that suits Q2 hexahedra: on these affine tetrahedra div u of a P2 field
 // is already linear on each cell, so projecting it onto P1disc changes nothing and P2–P1disc is
 // the displacement formulation, locking included (measured: identical punch forces). P2–P0

@@ -1,4 +1,4 @@
-// touchstone — one program, one subcommand per job (DESIGN.md §2).
+// touchstone — one program, one subcommand per job, `--help` on each.
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/meshes/organ_geometry.hpp"
@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
   mfs_cmd->add_option("--out", mfs_options.output_directory, "Output folder (default: output/<study name>)");
   mfs_cmd->add_flag("--quiet", mfs_options.quiet, "Print only errors");
 
-  // `touchstone surface organ|check`: organ surface meshes for collision detection (issue 5).
+  // `touchstone surface organ|check`: organ surface meshes for collision detection.
   // The work runs in CLI11 callbacks; a failure leaves through CLI::RuntimeError, which makes
   // CLI11_PARSE return its exit code (1: error, 2: the checked surface has defects).
   CLI::App* surface = app.add_subcommand("surface", "Organ surface meshes: generate one, or check a file");
@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
     }
   });
   check_cmd->callback([&] {
-    std::vector<realtime::geometry::SurfaceDefect> defects;
+    std::vector<geometry::SurfaceDefect> defects;
     try {
       const meshes::SurfaceMesh mesh = meshes::read_surface_mesh(check_path, check_options);
       std::printf("%s: %s, %zu triangles (%zu polygons split), %zu vertices (%zu welded, %zu unused)\n",
@@ -180,13 +180,13 @@ int main(int argc, char** argv) {
     }
     std::printf("  %zu kind%s of defect:\n", defects.size(), defects.size() == 1 ? "" : "s");
     for (const auto& defect : defects) {
-      std::printf("  - %s (%zu): %s\n", realtime::geometry::to_string(defect.kind), defect.count, defect.message.c_str());
+      std::printf("  - %s (%zu): %s\n", geometry::to_string(defect.kind), defect.count, defect.message.c_str());
     }
     throw CLI::RuntimeError(2);
   });
 
-  // `touchstone collision`: Table 1 replica, tremor and per-cycle cost of collision prediction
-  // (issue 5); runs in its callback like `surface`, errors leave through CLI::RuntimeError(1).
+  // `touchstone collision`: Table 1 replica, tremor and per-cycle cost of collision prediction;
+  // runs in its callback like `surface`, errors leave through CLI::RuntimeError(1).
   std::string collision_config, collision_output;
   bool collision_quiet = false, collision_no_plots = false;
   CLI::App* collision_cmd = app.add_subcommand(
@@ -216,14 +216,14 @@ int main(int argc, char** argv) {
     }
   });
 
-  // `touchstone study [accept] <config>`: MFS against the converged FEM reference (issue 4);
+  // `touchstone study [accept] <config>`: MFS against the converged FEM reference;
   // runs in its callback like `collision`. Exit codes: 1 error, 3 a CI baseline check failed.
   std::vector<std::string> study_args;
   studies::StudyRunOptions study_options;
   bool study_no_cache = false, study_no_report = false;
   CLI::App* study_cmd = app.add_subcommand(
       "study", "Compare the MFS with the converged FEM reference: force error vs N, displacement error, run time, "
-               "Table 2 replica, DESIGN.md targets; writes results.json, CSV tables and report.md. "
+               "Table 2 replica, speed and accuracy targets; writes results.json, CSV tables and report.md. "
                "`touchstone study accept <config>` also rewrites the study's CI baseline and prints what changed");
   study_cmd->add_option("config", study_args, "Study file (TOML), e.g. studies/hemisphere.toml; or: accept <config>")
       ->required()->expected(1, 2);
@@ -321,7 +321,7 @@ int main(int argc, char** argv) {
     }
   });
 
-  // `touchstone sim <scene>`: the real-time runtime (issue 6) on real threads or, with
+  // `touchstone sim <scene>`: the real-time runtime on real threads or, with
   // --virtual, lock-step on a virtual clock (study mode). Ctrl-C ends the run cleanly (zero force).
   std::string sim_scene_path, sim_output, sim_record, sim_replay, sim_screenshot, sim_force_mode;
   double sim_duration = -1;

@@ -1,8 +1,8 @@
 // `touchstone collision`: TOML → CollisionStudy, the three measurements (Table 1 replica,
-// tremor, per-cycle cost), results.json (DESIGN.md §8), CSV tables and report.md.
+// tremor, per-cycle cost), results.json (the study contract), CSV tables and report.md.
 #include "touchstone/studies/collision_study.hpp"
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <toml++/toml.h>
@@ -178,7 +178,7 @@ double elapsed_ns(std::chrono::steady_clock::time_point a, std::chrono::steady_c
 
 struct Organ {
   meshes::OrganParameters parameters;
-  std::unique_ptr<realtime::geometry::TriangleSurface> surface;
+  std::unique_ptr<geometry::TriangleSurface> surface;
   json info;
 };
 
@@ -193,14 +193,14 @@ Organ make_organ(const meshes::OrganParameters& parameters) {
                 {"vertices", mesh.vertices.size()},
                 {"mesh_size_m", mesh.mesh_size_m},
                 {"mesh_s", mesh.seconds}};
-  organ.surface = std::make_unique<realtime::geometry::TriangleSurface>(std::move(mesh.vertices), std::move(mesh.triangles),
+  organ.surface = std::make_unique<geometry::TriangleSurface>(std::move(mesh.vertices), std::move(mesh.triangles),
                                                                         organ_id(parameters));
   organ.info["area_m2"] = number(organ.surface->area_m2());
   organ.info["volume_m3"] = number(organ.surface->volume_m3());
   return organ;
 }
 
-std::vector<rc::ApproachTrajectory> make_trajectories(const realtime::geometry::TriangleSurface& surface,
+std::vector<rc::ApproachTrajectory> make_trajectories(const geometry::TriangleSurface& surface,
                                                       const rc::ApproachSettings& settings, int count,
                                                       std::uint64_t seed) {
   const rc::ApproachTrajectoryGenerator generator(surface, settings);
@@ -346,7 +346,7 @@ json mean_max(const std::vector<double>& values) {
   return {{"mean", sum / static_cast<double>(values.size())}, {"max", max}};
 }
 
-/// Null fields of the §8 contract that a collision case has no value for.
+/// Null fields of the results.json contract that a collision case has no value for.
 json contract_qoi() { return {{"force_N", nullptr}, {"stiffness_N_per_m", nullptr}, {"energy_J", nullptr}}; }
 json contract_error() { return {{"force_rel", nullptr}, {"disp_rel_l2", nullptr}, {"disp_max_m", nullptr}}; }
 
@@ -1035,7 +1035,7 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
         document["cycle_cost"].push_back(full);
         document["cycle_cost"].push_back(predicted);
 
-        // The §8 case: parameters, the QoIs above, times.
+        // The contract's case: parameters, the QoIs above, times.
         const double total_s = seconds_since(case_start);
         json qoi = contract_qoi();
         qoi["first_contact"] = {{"box_tests", row["box_tests"]},

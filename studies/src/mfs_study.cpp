@@ -1,10 +1,10 @@
 // `touchstone mfs`: TOML → MfsStudy (sections map one-to-one onto the engine's parameter
-// structs), the cases of the sweep, results.json (DESIGN.md §8) and the node clouds as VTU.
+// structs), the cases of the sweep, results.json (the study contract) and the node clouds as VTU.
 #include "touchstone/studies/mfs_study.hpp"
 
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
@@ -131,7 +131,7 @@ std::string format_number(double value) {
 // The organ surface.
 
 struct Organ {
-  realtime::geometry::TriangleSurface surface;
+  geometry::TriangleSurface surface;
   mfs::ClampedSurface clamped;
   json info;
 };
@@ -164,7 +164,7 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   } else {
     info = {{"source", "file"}};
   }
-  realtime::geometry::TriangleSurface surface = realtime::geometry::TriangleSurface::from_msh(path);
+  geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
   info["path"] = path;
   info["sha256"] = sha256_hex(read_file(path));
   info["vertices"] = surface.vertices().size();
@@ -895,7 +895,7 @@ std::string resolved_config_toml(const MfsStudy& study) {
 double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
   if (study.surface_path.empty()) throw std::invalid_argument("paper_tip_spacing_m: the study has no surface file");
   if (!study.model.paper_mode) throw std::invalid_argument("paper_tip_spacing_m: study '" + study.name + "' is not in paper mode");
-  const auto organ = realtime::geometry::TriangleSurface::from_msh(study.surface_path);
+  const auto organ = geometry::TriangleSurface::from_msh(study.surface_path);
   mfs::LocalModelSettings settings = study.model;
   settings.sprinkling.node_count = node_count;
   // The tip spacing does not depend on the patch condition (the sprinkler never reads it).

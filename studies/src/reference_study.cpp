@@ -23,8 +23,7 @@ using nlohmann::json;
 namespace {
 
 /// Asymptotic convergence order of the punch force: 1, set by the r^(1/2) edge singularity
-/// (DESIGN.md §3: first order in the edge mesh size). Richardson reports how far the observed
-/// order is from it.
+/// (first order in the edge mesh size). Richardson reports how far the observed order is from it.
 constexpr double punch_convergence_order = 1.0;
 
 json vector_json(const Eigen::Vector3d& v) { return json::array({v[0], v[1], v[2]}); }

@@ -305,7 +305,7 @@ std::string fmt_seconds(double seconds) {
   return text;
 }
 
-realtime::geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
+geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
   if (!scene.surface_path.empty()) return meshes::load_surface(scene.surface_path);
   // Generated shapes are cached beside the outputs (deterministic for the parameters).
   const auto& g = scene.generated_organ;
@@ -319,7 +319,7 @@ realtime::geometry::TriangleSurface load_organ(const SimScene& scene, const std:
     std::printf("organ: %s, %zu triangles (generated in %.1f s, cached as %s)\n", meshes::to_string(g.shape).c_str(),
                 mesh.triangles.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 cached.string().c_str());
-  return realtime::geometry::TriangleSurface(mesh.vertices, mesh.triangles, cached.string());
+  return geometry::TriangleSurface(mesh.vertices, mesh.triangles, cached.string());
 }
 
 }  // namespace
@@ -341,7 +341,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   fs::create_directories(scene.output_directory);
   const std::string out = scene.output_directory;
 
-  const realtime::geometry::TriangleSurface organ = load_organ(scene, out, options.print);
+  const geometry::TriangleSurface organ = load_organ(scene, out, options.print);
   std::vector<std::string> notes;
 
   // The device.

@@ -1,6 +1,6 @@
 // `touchstone study`: one study file → the FEM reference (cached), the MFS series, the errors
 // of every MFS case against the reference next to the reference's own error estimate, Table 2,
-// the DESIGN.md §11 targets, results.json, CSV tables and the report.
+// the speed and accuracy targets, results.json, CSV tables and the report.
 #include "touchstone/studies/study_runner.hpp"
 
 #include "touchstone/studies/probes.hpp"
@@ -609,9 +609,9 @@ class StudyRun {
     return doc;
   }
 
-  /// B4: a point displacement has no finite force in the continuum, so DESIGN.md §3 pairs the
-  /// paper's tool-tip node with a flat punch of radius equal to the tip's node spacing s (the
-  /// radius of eq. 9's tributary disc π s²). s changes with N and the layout, so each distinct
+  /// B4: a point displacement has no finite force in the continuum, so B4 pairs the paper's
+  /// tool-tip node with a flat punch of radius equal to the tip's node spacing s (the radius of
+  /// eq. 9's tributary disc π s²). s changes with N and the layout, so each distinct
   /// s gets its own converged reference (the problem's FEM file, every mesh size scaled by s/a,
   /// so that each punch is resolved alike), and both models' forces move with the resolution.
   /// Returns one entry per punch for results.json.
@@ -939,7 +939,7 @@ class StudyRun {
     return t;
   }
 
-  /// DESIGN.md §11: each target with the measured value, met or not, and by how much.
+  /// The speed and accuracy targets: each with the measured value, met or not, and by how much.
   json targets(const json& cases, const json& table2, bool have_full_reference) const {
     json list = json::array();
     const auto add = [&](const std::string& id, const std::string& what, double target, double measured,
@@ -997,7 +997,7 @@ class StudyRun {
       };
       const std::string label = "MFS " + s.name + " (" + mfs::to_string(s.study.model.formulation) +
                                 (s.engine_default ? ", engine default" : "") + ")" + where;
-      // The §11 force targets are stated on B3, the MFS's own domain; on a whole body the same
+      // The force targets are stated on B3, the MFS's own domain; on a whole body the same
       // numbers measure the local model's truncation as well.
       const std::string domain = r.problem().benchmark == meshes::Benchmark::B3
                                      ? "on the identical domain"
@@ -1269,7 +1269,7 @@ class StudyRun {
                   table_cell(1e3 * value_or_nan(c.at("time_s"), "total"), 11, 2).c_str(), versus.c_str(),
                   c.at("status").get<std::string>().c_str(), flags.c_str());
     }
-    std::printf("\nDESIGN.md §11 targets:\n");
+    std::printf("\nTargets:\n");
     for (const auto& t : document.at("targets")) {
       const std::string met = t.at("met").is_null() ? "n/a " : (t.at("met").get<bool>() ? "MET " : "MISS");
       std::printf("  %s %s: %s %s\n", met.c_str(), t.at("what").get<std::string>().c_str(),

@@ -1,5 +1,5 @@
-// CI accuracy regression (DESIGN.md §8): a baseline of a study's errors with provenance, the
-// check of a new run against it, and the diff that `touchstone study accept` prints.
+// CI accuracy regression: a baseline of a study's errors with provenance, the check of a new
+// run against it, and the diff that `touchstone study accept` prints.
 #include "touchstone/studies/study_runner.hpp"
 
 #include <cmath>

@@ -2,8 +2,8 @@
 #include "support/expect_invalid_argument.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -32,8 +32,8 @@ using touchstone::testing::expect_invalid_argument;
 
 using Eigen::Vector3d;
 using Eigen::Vector3i;
-using realtime::geometry::TriangleMeshData;
-using realtime::geometry::TriangleSurface;
+using geometry::TriangleMeshData;
+using geometry::TriangleSurface;
 
 constexpr double pi = 3.14159265358979323846;
 
@@ -44,7 +44,7 @@ std::string read_file(const std::string& path) {
 
 /// The sphere of the round trips: 320 triangles, coordinates that are not short decimals.
 TriangleMeshData sphere() {
-  TriangleMeshData mesh = realtime::geometry::icosphere(2, 0.04);
+  TriangleMeshData mesh = geometry::icosphere(2, 0.04);
   for (Vector3d& x : mesh.vertices) x += Vector3d(0.1, -0.2, 0.3);
   return mesh;
 }
@@ -215,7 +215,7 @@ TRIANGLE_STRIPS 4 20
   // Only the open side is wrong: the ear cutting and the strips keep the orientation.
   const auto defects = validate_surface_mesh(prism);
   ASSERT_EQ(defects.size(), 1u) << defects.front().message;
-  EXPECT_EQ(defects[0].kind, realtime::geometry::SurfaceDefectKind::boundary_edge);
+  EXPECT_EQ(defects[0].kind, geometry::SurfaceDefectKind::boundary_edge);
   EXPECT_EQ(defects[0].count, 4u);
   EXPECT_NE(defects[0].message.find("1 hole"), std::string::npos) << defects[0].message;
   EXPECT_NE(defects[0].message.find("(VTK points "), std::string::npos) << defects[0].message;
@@ -377,8 +377,8 @@ TEST(SurfaceMeshIo, ValidateSurfaceMeshListsEveryDefect) {
   const SurfaceMesh mesh = read_surface_mesh(path);
   const auto defects = validate_surface_mesh(mesh);
   ASSERT_EQ(defects.size(), 2u);
-  EXPECT_EQ(defects[0].kind, realtime::geometry::SurfaceDefectKind::boundary_edge);
-  EXPECT_EQ(defects[1].kind, realtime::geometry::SurfaceDefectKind::inconsistent_orientation);
+  EXPECT_EQ(defects[0].kind, geometry::SurfaceDefectKind::boundary_edge);
+  EXPECT_EQ(defects[1].kind, geometry::SurfaceDefectKind::inconsistent_orientation);
   EXPECT_EQ(defects[1].message.rfind(path + ": inconsistent orientation", 0), 0u) << defects[1].message;
   expect_invalid_argument([&] { load_surface(path); }, {path, "not closed", "(further defects: inconsistent orientation)"});
 }

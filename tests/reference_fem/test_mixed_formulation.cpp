@@ -1,4 +1,5 @@
-// The locking-free option of the reference FEM (Formulation::mixed_p0disc, DESIGN.md §5.3):
+// The locking-free option of the reference FEM for ν → 0.5, where pure-displacement elements
+// lock (Formulation::mixed_p0disc: P2 displacement, per-cell constant pressure condensed away):
 // patch tests up to ν = 0.4999, the B3 punch force with and without locking against a
 // Richardson-extrapolated reference, agreement with the displacement formulation at ν = 0.3, a
 // nearly incompressible manufactured solution, and rejection of bad settings. Direct solves
@@ -86,9 +87,9 @@ TEST(MixedFormulation, PunchForceDoesNotLockNearIncompressibility) {
 }
 
 // Far from the limit both are consistent discretisations of the same problem: they differ by
-// much less than the level-0 mesh's own discretisation error (about 10 % at ν = 0.45 in the
-// results of studies/b3_reference.toml; measured difference here 2.1 %, tolerance 4 %), and the
-// condensed element is the softer one.
+// much less than the level-0 mesh's own discretisation error (studies/b3_reference.toml reports
+// it; the difference is printed here, tolerance 4 %), and the condensed element is the softer
+// one.
 TEST(MixedFormulation, AgreesWithDisplacementFormulationAtModeratePoisson) {
   const double displacement = b3_level0_force(0.3, Formulation::displacement);
   const double mixed = b3_level0_force(0.3, Formulation::mixed_p0disc);

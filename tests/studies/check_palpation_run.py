@@ -1,8 +1,8 @@
-"""Acceptance 1 of issue 6: the shipped palpation scene runs headless for 60 s with the scripted
-device. Runs `touchstone sim studies/scenes/palpation.toml` on real threads and checks its
-summary.json: the run lasted the full minute, the haptic loop's p99 lateness and missed
-deadlines are reported (and printed against DESIGN.md §11's targets), the palpations touched
-the organ with the model ready or faded in, the safety filter never intervened on this benign
+"""The shipped palpation scene runs headless for 60 s with the scripted device. Runs
+`touchstone sim studies/scenes/palpation.toml` on real threads and checks its summary.json: the
+run lasted the full minute, the haptic loop's p99 lateness and missed deadlines are reported
+(and printed against the 1 kHz loop's timing targets), the palpations touched the organ with
+the model ready or faded in, the safety filter never intervened on this benign
 trajectory, and the ParaView time series opens with VTK's XML readers.
 Usage: check_palpation_run.py <touchstone binary> <source dir> <output dir>"""
 import json
@@ -32,7 +32,8 @@ check(abs(summary["duration_s"] - 60.0) < 0.01, f"60 s of run time ({summary['du
 check(haptic["ticks"] + haptic["skipped_deadlines"] >= 59990, f"~60,000 haptic ticks ({haptic['ticks']} + {haptic['skipped_deadlines']} skipped)")
 for key in ("lateness_p50_s", "lateness_p99_s", "lateness_max_s", "late_ticks", "late_fraction", "skipped_deadlines"):
     check(key in haptic, f"haptic loop reports {key}")
-# DESIGN.md §11 targets, reported (a shared CI machine decides whether they are met: not asserted).
+# The 1 kHz loop's timing targets, printed, not asserted: on a shared CI machine the load, not
+# the code, decides whether they are met.
 print(f"     haptic lateness p99 {haptic['lateness_p99_s'] * 1e6:.1f} us (target <= 50 us), "
       f"late > 0.5 ms {100 * haptic['late_fraction']:.3f} % (target <= 0.2 %), max {haptic['lateness_max_s'] * 1e6:.0f} us; "
       f"{summary['haptic_thread']['note']}")

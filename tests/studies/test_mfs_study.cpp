@@ -1,6 +1,6 @@
 // `touchstone mfs` end to end on a tiny sweep (N = 34, 60 on the B2 hemisphere): the
-// results.json contract of DESIGN.md §8, the resolved config, the VTU files, and config errors
-// that name the file and the key or field.
+// results.json contract (the fields other tools read), the resolved config, the VTU files, and
+// config errors that name the file and the key or field.
 #include "touchstone/studies/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/probes.hpp"

@@ -124,9 +124,8 @@ AtlasRunOptions uncached() {
 }
 
 // The FEM and the closed form describe the same thing: on the B1 cylinder the exterior stiffness
-// tends to the half-space value as W grows (measured on these meshes: 1.256, 1.112, 1.056, 1.030
-// at W = 20a, 40a, 80a, 160a, about 1 + 5 L/W). At W = 160a the coarse two-level result lies
-// within a few per cent above it.
+// tends to the half-space value as W grows (the clamped base's excess falls about as 5 L/W). At
+// W = 160a the coarse two-level result lies within a few per cent above it.
 TEST(OrganAtlasFem, WideCylinderApproachesTheHalfSpaceClosedForm) {
   const ExteriorStiffness k = exterior_stiffness_fem(coarse_geometry(meshes::Benchmark::B1, 160 * a), tissue(),
                                                      AtlasModes::normal, {0, 1}, 1e-4, fem::SolverParameters{},

@@ -1,5 +1,5 @@
-// `touchstone fem` end to end on a tiny B2 problem: the results.json contract of DESIGN.md §8,
-// the cache, and config errors that name the file and key.
+// `touchstone fem` end to end on a tiny B2 problem: the results.json contract (the fields other
+// tools read), the cache, and config errors that name the file and key.
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/studies/config_reader.hpp"
 #include "touchstone/studies/provenance.hpp"

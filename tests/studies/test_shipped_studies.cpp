@@ -31,7 +31,7 @@ std::vector<fs::path> comparison_studies() {
   return files;
 }
 
-TEST(ShippedStudies, TheIssueFourStudiesAreShipped) {
+TEST(ShippedStudies, TheComparisonStudiesAreShipped) {
   std::set<std::string> names;
   for (const auto& path : comparison_studies()) names.insert(path.stem().string());
   for (const char* expected : {"hemisphere", "ci_accuracy", "sprinkling", "paper_mode", "truncation", "formulation",

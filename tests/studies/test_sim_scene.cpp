@@ -4,7 +4,7 @@
 
 #include "support/temporary_directory.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>
@@ -61,7 +61,7 @@ TEST(SimScene, BadScenesNameTheFileAndKey) {
 
 /// A small scene on a sphere written to a file: collocation (fast builds), 6 s of palpation.
 std::string small_scene(const touchstone::testing::TemporaryDirectory& directory) {
-  const auto mesh = realtime::geometry::icosphere(4, 0.04);
+  const auto mesh = geometry::icosphere(4, 0.04);
   meshes::write_surface_mesh(directory.path("sphere.vtp"), mesh.vertices, mesh.triangles);
   return directory.file("small.toml", R"(
 scene = "small"

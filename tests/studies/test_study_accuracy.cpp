@@ -1,4 +1,4 @@
-// CI accuracy regression (DESIGN.md §8): studies/ci_accuracy.toml (a coarse FEM reference on B3
+// CI accuracy regression: studies/ci_accuracy.toml (a coarse FEM reference on B3
 // and small MFS series, well under a minute) against studies/baselines/ci_accuracy.json. The
 // thresholds are physical: each MFS force error and displacement error within 0.5 percentage
 // points of the baseline, the FEM reference force within 0.1 %. A second run must resume every

@@ -7,7 +7,7 @@
 #include "study_test_support.hpp"
 
 #include "touchstone/meshes/surface_mesh_io.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/studies/config_reader.hpp"
 
 #include <Eigen/Geometry>
@@ -46,8 +46,8 @@ node_count = [100]
   EXPECT_NEAR(reference.at("half_space_force_N").get<double>(), sneddon, 1e-12 * sneddon);
   const double fem = reference.at("axial_force_N").get<double>();
   // Two coarse levels (no Richardson): the finer is the reference, measured 17.678 mN =
-  // 1.1278 x Sneddon (the converged B1 force is 1.047 x, b1_reference.toml: this mesh is 8 %
-  // stiff). Within ± 1 % of that: the meshes are deterministic.
+  // 1.1278 x Sneddon (stiffer than the converged B1 force of b1_reference.toml: the mesh is
+  // coarse). Within ± 1 % of that: the meshes are deterministic.
   EXPECT_NEAR(fem / sneddon, 1.1278, 0.01 * 1.1278) << fem;
   EXPECT_NEAR(reference.at("ratio_to_half_space").get<double>(), fem / sneddon, 1e-12);
   // The analytic case is listed with the reference's cases, its ramp linear in δ.
@@ -57,8 +57,8 @@ node_count = [100]
 
   // The MFS: the local ball L = 5a with u = 0 on its cut is far stiffer than the whole cylinder
   // (truncation), as on the hemisphere. Measured at N = 100: F = 34.451 mN, 2.198 x Sneddon and
-  // 1.949 x this coarse F_FEM (2.10 x the converged B1 force; 1.55 x the FEM of the local ball
-  // on a flat top itself, 22.23 mN, from B3 with R = 200a). Within ± 5 % of the measured ratios:
+  // 1.949 x this coarse F_FEM (the MFS discretisation adds to the truncation: the FEM of the
+  // local ball itself is softer). Within ± 5 % of the measured ratios:
   // a lost clamped cut, a wrong contact frame or a wrongly cut flat top moves them by far more.
   const json& mfs = case_with_id(results, "MFS-g-N100");
   ASSERT_EQ(mfs.at("status"), "ok") << mfs.at("status");
@@ -80,7 +80,7 @@ node_count = [100]
   for (const auto& entry : fs::directory_iterator(out / "run" / "organ")) {
     if (entry.path().extension() != ".msh") continue;
     ++organs;
-    const auto surface = realtime::geometry::TriangleSurface::from_msh(entry.path().string());
+    const auto surface = geometry::TriangleSurface::from_msh(entry.path().string());
     const double w = 0.05;
     EXPECT_NEAR(surface.volume_m3(), M_PI * w * w * w, 0.005 * M_PI * w * w * w);
     EXPECT_NEAR(surface.area_m2(), 4 * M_PI * w * w, 0.005 * 4 * M_PI * w * w);

@@ -1,6 +1,6 @@
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 
-#include "touchstone/realtime/geometry/closest_point_on_triangle.hpp"
+#include "touchstone/geometry/closest_point_on_triangle.hpp"
 
 #include <Eigen/Geometry>
 

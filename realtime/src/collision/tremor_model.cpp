@@ -27,7 +27,7 @@ void TremorSettings::validate() const {
   if (!(band_low_hz > 0)) reject("band_low_hz", band_low_hz, "must be > 0");
   if (!(band_high_hz > band_low_hz)) reject("band_high_hz", band_high_hz, "must be > band_low_hz");
   if (!(band_high_hz < 0.45 * sample_rate_hz)) reject("band_high_hz", band_high_hz, "must be < 0.45 sample_rate_hz");
-  // A band wider than about 3.5 octaves gives real band-pass poles: not this design.
+  // A band wider than about 3.5 octaves gives real band-pass poles, which this filter does not handle.
   if (!(band_high_hz < 10 * band_low_hz)) reject("band_high_hz", band_high_hz, "must be < 10 band_low_hz");
   if (filter_order < 1 || filter_order > max_tremor_filter_order)
     reject("filter_order", filter_order, "must be in [1, " + std::to_string(max_tremor_filter_order) + "]");
@@ -148,7 +148,7 @@ Eigen::Vector3d TremorGenerator::next() noexcept {
       Complex& z = phasors_[axis][k];
       const Complex& w = rotations_[axis][k];
       sum += z.imag();
-      // Written out: std::complex's operator* checks for infinities (a libcall, 10× slower).
+      // Written out: std::complex's operator* checks for infinities (a libcall on every product).
       z = Complex(z.real() * w.real() - z.imag() * w.imag(), z.real() * w.imag() + z.imag() * w.real());
       if (renormalise) z /= std::abs(z);
     }

@@ -1,6 +1,6 @@
 #include "touchstone/realtime/haptics/openigtlink_device.hpp"
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <igtlMessageHeader.h>
 #include <igtlPolyDataMessage.h>

@@ -27,8 +27,9 @@ const char* to_string(MlsStatus status) {
   return "unknown";
 }
 
-/// The paper's force in newtons (DESIGN.md §1.4): each patch node's traction rows scaled by its
-/// tributary area — the traction map on a nodal quadrature of the patch.
+/// The paper's force in newtons (collocation rows are residuals, not forces): each patch node's
+/// traction rows scaled by its tributary area — the traction map on a nodal quadrature of the
+/// patch.
 bool patch_node_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
                     const PatchQuadrature& patch, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
   PatchQuadrature nodes;
@@ -51,7 +52,7 @@ const Eigen::Matrix<double, 3, Eigen::Dynamic>& haptic_map(const LocalModel& mod
   }
 }
 
-/// Paper eq. 7 with the tip dofs a = 3t…3t+2: U_b = −K_bb⁻¹ K_ba U_a for U_a = e_x, e_y, e_z.
+/// Paper eq. 8 with the tip dofs a = 3t…3t+2: U_b = −K_bb⁻¹ K_ba U_a for U_a = e_x, e_y, e_z.
 /// K is square here (paper mode never oversamples).
 bool condense_tip(const CollocationSystem& system, int tip, Eigen::MatrixXd& unit_response, std::string& failure) {
   const Eigen::Index n = system.stiffness.cols();
@@ -323,8 +324,8 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   // weighted by s_a, the patch nodes' share of the patch: Σ_a s_a h_a ≈ 1 on it in least squares
   // (M s = b, M_ab = ∫ h_a h_b dA, b_a = ∫ h_a dA), so Σ_a s_a (K_el U)_a ≈ ∫_patch λ dA. With
   // interpolating (FEM) shape functions s_a = 1 and this is the FEM's reaction from the
-  // unconstrained residual; weighting by tributary area / ∫ h_a dA instead measured 13–17 % low
-  // at N = 100–800 on B3 (the singular edge traction averaged over each support).
+  // unconstrained residual; weighting by tributary area / ∫ h_a dA instead stays low on B3 as N
+  // grows (the singular edge traction averaged over each support).
   const GalerkinSystem& g = model.galerkin;
   model.paper_map.setZero(3, 3 * static_cast<Eigen::Index>(model.cloud.size()));
   if (!g.patch_nodes.empty()) {
@@ -370,7 +371,7 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
   const LocalSurface surface(organ, model.contact.point, 1.3 * length);
   model.cloud = sprinkle_even_nodes(surface, model.contact, settings.sprinkling.node_count, length, settings.sprinkling.seed);
   // Finer shape functions need finer quadratures: under-integrating the MLS–MLS block, or the
-  // cut's multipliers, makes the model too soft (−1.3 % at N = 280 on B3 with the counts fixed).
+  // cut's multipliers, makes the model too soft as N grows with the counts fixed.
   // The angular counts grow as ∛(N/40) beyond 40 nodes.
   const EnrichedSettings quadrature_settings = scaled_quadratures(settings.enriched, model.cloud.size());
   EnrichedQuadratures quadratures;
@@ -494,7 +495,7 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
     model.load_response = response.col(3);
   }
 
-  // Force maps: each is U ↦ F, so K_t = map · unit_response is the condensation (§4.5).
+  // Force maps: each is U ↦ F, so K_t = map · unit_response is the condensation.
   const MlsSettings& mls = settings.collocation.mls;
   const PatchQuadrature patch = patch_quadrature(organ, contact, f.patch_radial_points, f.patch_angular_points);
   if (!surface_traction_map(model.cloud, material, mls, patch, model.traction_surface_map))

@@ -1,6 +1,6 @@
 /// @file
 /// MLS shape functions with values, gradients and Hessians from one Cholesky factorisation of the
-/// moment matrix (DESIGN.md §4.1).
+/// moment matrix (paper eqs. 3–5).
 ///
 /// Frame. The basis is centred at a frozen point c and set to c = x after differentiating: the
 /// MLS approximant does not depend on the polynomial frame, so differentiating with c fixed gives

@@ -127,7 +127,7 @@ PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const 
       // ρ = a (e^{κt} − 1), κ = ln(1 + reach/a), t ∈ [0, 1]: uniform for ρ ≪ a, geometric
       // beyond — the grading of the node cloud, whose spacing grows like max(a, ρ). Uniform
       // points in ρ left the fine nodes near the patch under-integrated (spurious soft modes
-      // of the Galerkin K: the uniform-pressure deflection jumped by ±100 % with N).
+      // of the Galerkin K: the uniform-pressure deflection jumped back and forth with N).
       const double scale = contact.radius_m, kappa = std::log1p(reach / scale);
       for (int i = 0; i < radial_points; ++i) {
         const double rho = scale * std::expm1(kappa * xr[i]);

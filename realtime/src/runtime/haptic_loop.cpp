@@ -158,8 +158,8 @@ bool HapticLoop::tick(double time_s) noexcept {
   state.contact_point_m = plain(contact_point);
   state.contact_normal = plain(contact_normal);
   const collision::CollisionPrediction& prediction = predictor.prediction();
-  // Any predicted point will do for building ahead, in range or not: the build takes a few
-  // hundred milliseconds, and the straight-line range is reached later than that.
+  // Any predicted point will do for building ahead, in range or not: a build can take longer
+  // than the tool needs from the straight-line range to contact.
   state.prediction_valid = !in_contact && prediction.valid;
   state.predicted_point_m = plain(prediction.point);
   state.predicted_normal = plain(prediction.normal);

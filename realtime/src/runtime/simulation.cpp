@@ -84,7 +84,7 @@ void SceneSettings::validate() const {
   require_non_negative(duration_s, "duration_s");
   require_non_negative(connect_timeout_s, "connect_timeout_s");
   if (model.paper_mode)
-    throw std::invalid_argument("model.paper_mode: the paper's point tool gives no usable force (DESIGN.md §1); "
+    throw std::invalid_argument("model.paper_mode: the paper's point tool gives no usable force (it tends to zero as the node cloud is refined); "
                                 "the runtime needs a tool of finite radius");
   if (std::abs(prediction.cycle_period_s * rates.haptic_hz - 1) > 1e-9)
     throw std::invalid_argument("prediction.cycle_period_s = " + std::to_string(prediction.cycle_period_s) +

@@ -10,7 +10,7 @@
 /// cycle made none.
 
 #include "touchstone/realtime/collision/surface_queries.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 

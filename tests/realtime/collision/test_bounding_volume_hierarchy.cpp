@@ -4,8 +4,8 @@
 #include "support/embree_scene.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/collision/oriented_box.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Collision prediction (paper §3.1–3.2, DESIGN.md §6): eqs. 1–2 by hand, the ring buffer, the
+// Collision prediction (paper §3.1–3.2): eqs. 1–2 by hand, the ring buffer, the
 // settings, the certified corridor, and — against full detection run every cycle — that no
 // contact is ever missed over thousands of randomized approaches with tremor, on a convex and a
 // non-convex surface, at the full and at reduced prediction rates; that a cycle after a
@@ -11,8 +11,8 @@
 
 #include "touchstone/realtime/collision/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

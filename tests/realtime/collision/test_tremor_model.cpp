@@ -1,5 +1,5 @@
-// The tremor model and the approach trajectories for prediction studies (paper §3.2, DESIGN.md
-// §6): the band-pass, the spectrum and RMS of the tremor (Eigen's FFT), determinism, smooth
+// The tremor model and the approach trajectories for prediction studies (paper §3.2): the
+// band-pass, the spectrum and RMS of the tremor (Eigen's FFT), determinism, smooth
 // motion below 10 Hz, the trajectories' geometry — and the paper's tremor result measured:
 // the predicted collision point from the last tool path vector (eq. 1) against the mean tool
 // path (eq. 2), over many randomized approaches.
@@ -8,8 +8,8 @@
 #include "touchstone/realtime/collision/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
 #include "touchstone/realtime/collision/tremor_model.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 #include <gtest/gtest.h>

@@ -4,8 +4,8 @@
 // on its screenshot by colour, and the window manager's close button is played through Xlib.
 
 #include "support/temporary_directory.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/graphics/interactive_window.hpp"
 
 #include <vtkImageData.h>
@@ -448,8 +448,9 @@ TEST(InteractiveWindow, RefusesFramesFromAnotherThreadAndBadFrames) {
   window.end();
 }
 
-// The cost of one window frame for an organ of ~20,000 triangles (printed, not asserted:
-// DESIGN.md §9; Xvfb renders with Mesa's software rasterizer, slower than a GPU).
+// The cost of one window frame for an organ of ~20,000 triangles (printed, not asserted: unit
+// tests never assert wall-clock times; Xvfb renders with Mesa's software rasterizer, slower than
+// a GPU).
 TEST(InteractiveWindow, ReportsTheCostOfAFrame) {
   REQUIRE_XVFB();
   InteractiveWindowSettings settings;

@@ -1,7 +1,7 @@
 #include "support/expect_invalid_argument.hpp"
 #include "support/temporary_directory.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/graphics/vtk_time_series.hpp"
 
 #include <vtkCellArray.h>
@@ -350,7 +350,8 @@ TEST(VtkTimeSeriesWriter, RejectsFramesThatDoNotMatchTheOrgan) {
 }
 
 // A one-minute run at 30 Hz with the default stride stays far from gigabytes for an organ of
-// ~20,000 triangles; prints the cost of one written frame (not asserted: DESIGN.md §9).
+// ~20,000 triangles; prints the cost of one written frame (not asserted: unit tests never assert
+// wall-clock times).
 TEST(VtkTimeSeriesWriter, DefaultStrideKeepsAMinuteSmall) {
   TemporaryDirectory directory("vtk_time_series");
   const auto organ = sphere(5);  // 20,480 triangles

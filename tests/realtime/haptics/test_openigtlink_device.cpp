@@ -4,8 +4,8 @@
 
 #include "touchstone/realtime/haptics/openigtlink_device.hpp"
 
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "support/openigtlink_peer.hpp"
 
 #include <igtlClientSocket.h>
@@ -37,8 +37,8 @@
 
 namespace {
 
-using touchstone::realtime::geometry::icosphere;
-using touchstone::realtime::geometry::TriangleSurface;
+using touchstone::geometry::icosphere;
+using touchstone::geometry::TriangleSurface;
 using touchstone::realtime::graphics::GraphicsFrame;
 using touchstone::realtime::haptics::DeviceSample;
 using touchstone::realtime::haptics::OpenIgtLinkDevice;

@@ -118,8 +118,9 @@ TEST(SafetyFilter, FirstTickAndBackwardClockGiveNoAllowance) {
   EXPECT_TRUE(filter.filter(Eigen::Vector3d(1, 0, 0), nan_time).allFinite());
 }
 
-// Acceptance 3: 200,000 ticks of injected faults — NaN, Inf, spikes of 10³–10⁹ N, stale data,
-// disconnects — and the two invariants hold on every tick.
+// Whatever reaches the filter, the device gets a clamped, rate-limited force: 200,000 ticks of
+// injected faults — NaN, Inf, spikes of 10³–10⁹ N, stale data, disconnects — and the two
+// invariants hold on every tick.
 TEST(SafetyFilter, NeverExceedsTheClampOrTheRateLimitUnderInjectedFaults) {
   const SafetySettings s = settings();
   SafetyFilter filter(s);

@@ -7,7 +7,7 @@
 
 #include "support/expect_invalid_argument.hpp"
 #include "support/temporary_directory.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/geometry/icosphere.hpp"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 /// surface, meshed once per process, and the frictionless punch (a = 2.5 mm) at its pole.
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 
 #include <unistd.h>

@@ -1,7 +1,8 @@
 // Point collocation (paper eq. 6) on a box cloud: an affine field is reproduced exactly with
 // either basis (patch test, Dirichlet and traction boundaries), a quadratic field with its
-// body force is exact with the quadratic basis, and the linear basis shows the O(1) error of
-// DESIGN.md §1.2. All three solvers agree.
+// body force is exact with the quadratic basis, and the linear basis (the paper's) misses it:
+// its MLS second derivatives are wrong by O(1), so its Navier rows are inconsistent. All three
+// solvers agree.
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 
@@ -170,7 +171,7 @@ TEST(QuadraticField, IsExactWithTheQuadraticBasis) {
   EXPECT_LT(solve_and_measure(cloud, m, field, Basis::quadratic, SolverKind::sparse_lu), 1e-9);
 }
 
-// DESIGN.md §1.2: with the linear basis the MLS second derivatives of a quadratic field are
+// With the linear basis (the paper's) the MLS second derivatives of a quadratic field are
 // wrong by O(1) at fixed support factor, so the Navier rows are inconsistent: the same field
 // that the quadratic basis reproduces to 1e-9 is missed by per cents (measured: 46 % with 6³
 // nodes, 12 % with 9³ nodes on this box; the MLS test shows the Laplacian error itself).
@@ -213,12 +214,14 @@ Field sine_field(const Material& m) {
   return f;
 }
 
-// Issue acceptance 3: a smooth manufactured solution with Dirichlet and traction boundaries on
-// jittered clouds. Plain point collocation is not stable on irregular clouds (measured: the
-// error does not fall, or grows, with n); least-squares collocation with a second jittered
-// lattice of (2n − 1)³ points is, and converges at first to second order in the max norm. The FIC-stabilised
-// traction rows (β = 0.5) are printed for comparison. Orders are printed for support factors
-// 2, 2.5 and 3 (factor 2 needs the adaptive support growth: max_support_scale 1.5).
+// Traction rows are a classic source of instability in strong-form collocation, so a stabilised
+// variant must converge where plain collocation does not: a smooth manufactured solution with
+// Dirichlet and traction boundaries on jittered clouds. Plain point collocation is not stable on
+// irregular clouds (measured: the error does not fall, or grows, with n); least-squares
+// collocation with a second jittered lattice of (2n − 1)³ points is, and converges at first to
+// second order in the max norm. The FIC-stabilised traction rows (β = 0.5) are printed for
+// comparison. Orders are printed for support factors 2, 2.5 and 3 (factor 2 needs the adaptive
+// support growth: max_support_scale 1.5).
 TEST(ManufacturedSolution, LeastSquaresCollocationConverges) {
   const Material m{10.0e3, 0.45};
   const Field field = sine_field(m);

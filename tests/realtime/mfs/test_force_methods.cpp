@@ -1,21 +1,20 @@
-// Issue acceptance 5 (DESIGN.md §4.6): the four force extractions — (a) the traction integral
-// over the patch (in its domain form ∫ σ(u_h) ∇w dV, tool_force.hpp), (b) the reaction on the
-// cut, (c) energy 2U/δ, (d) the paper's partition with tributary scaling — converge to each
-// other as N grows on the B3 domain (hemisphere R = 50 mm ∩ ball(pole, 5a), clamped cut,
-// frictionless punch a = 2.5 mm, δ = 0.25 mm), with the Galerkin default. They converge to each
-// other by converging to one limit, the FEM on the same domain (22.04 mN, studies/b3_reference.toml,
-// Richardson error 1.2 %): the test asserts that the band holding all four narrows around it.
+// The four force extractions must agree as N grows: (a) the traction integral over the patch
+// (in its domain form ∫ σ(u_h) ∇w dV, tool_force.hpp), (b) the reaction on the cut, (c) energy
+// 2U/δ, (d) the paper's partition with tributary scaling, on the B3 domain (hemisphere
+// R = 50 mm ∩ ball(pole, 5a), clamped cut, frictionless punch a = 2.5 mm, δ = 0.25 mm), with the
+// Galerkin default. They converge to each other by converging to one limit, the FEM on the same
+// domain (22.04 mN from studies/b3_reference.toml, which reports its own discretisation error):
+// the test asserts that the band holding all four narrows around it.
 //
 // Measured on this surface (N = 103, 201, 409), error against the FEM:
 //   (a) +66.5 +35.5 +9.3 %  (b) +58.5 +35.4 +22.3 %  (c) +38.6 +25.6 +17.7 %  (d) +57.4 +35.2 +21.5 %
 //   spread (max − min) 6.15, 2.18, 2.87 mN
-// (touchstone mfs studies/mfs_b3_galerkin.toml, on its finer surface, continues to N = 796:
-// spread 3.9, 2.4, 2.5, 1.35 mN at N = 100, 205, 414, 796.) The surface form of (a), σ(u_h)n
-// on the patch, is printed too: −56, −33, −37 % — the smooth MLS field cannot carry the
-// r^(−1/2) edge stress pointwise, which is why (a) is evaluated in its domain form; and (d) with
-// the collocation-style weights (tributary area / ∫ h_a dA) stayed 13–17 % below (b) up to
-// N = 800, which is why the Galerkin (d) weights its rows by the patch nodes' least-squares
-// shares of unity.
+// (touchstone mfs studies/mfs_b3_galerkin.toml continues the series on a finer surface to
+// N ≈ 800.) The surface form of (a), σ(u_h)n on the patch, is printed too: −56, −33, −37 % —
+// the smooth MLS field cannot carry the r^(−1/2) edge stress pointwise, which is why (a) is
+// evaluated in its domain form. The collocation-style weights for (d) (tributary area /
+// ∫ h_a dA) leave it below (b) as N grows instead of converging to it, which is why the
+// Galerkin (d) weights its rows by the patch nodes' least-squares shares of unity.
 #include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 

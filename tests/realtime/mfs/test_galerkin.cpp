@@ -106,8 +106,8 @@ TEST(Galerkin, PatchNodeRowsAreTheConstraintTractionWeightedByTheirShapeFunction
 
 TEST(Galerkin, ForceConvergesToTheFemFromAbove) {
   // Measured on this surface: reaction +259 %, +59 %, +22 % and energy +184 %, +39 %, +18 % at
-  // N = 33, 103, 409 (touchstone mfs studies/mfs_b3_galerkin.toml goes on to +13 % / +7 % at
-  // N = 796).
+  // N = 33, 103, 409 (touchstone mfs studies/mfs_b3_galerkin.toml continues the series to
+  // N ≈ 800).
   std::vector<double> reaction, energy;
   for (const int n : {34, 100, 400}) {
     const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, galerkin_settings(n));

@@ -1,9 +1,10 @@
-// The local MFS model (DESIGN.md §4): degenerate input ends in a clear status or a named
+// The local MFS model: degenerate input ends in a clear status or a named
 // std::invalid_argument, never in NaN (coplanar or duplicate nodes, too small supports and
-// their adaptive rescue, ν → 0.5, NaN coordinates, invalid settings); the tool stiffness K_t is
-// the condensation of the collocation system (§4.5) and the model is linear; the paper mode
-// solves eq. 7 with the tip's parameters set to U_tool; least-squares collocation reports the
-// misfit of its rectangular system and solves its normal equations.
+// their adaptive rescue, ν → 0.5, NaN coordinates, invalid settings); the 3×3 tool stiffness K_t
+// that gives the exact force at haptic rate is the condensation of the collocation system and
+// the model is linear; the paper mode solves eqs. 7–8 with the tip's parameters set to U_tool;
+// least-squares collocation reports the misfit of its rectangular system and solves its normal
+// equations.
 #include "hemisphere_fixture.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 
@@ -182,8 +183,8 @@ TEST(LocalModelDegenerate, CoplanarNodesAreSingularMoments) {
 // says so, or the answer it gives is finite and the field u_h = Σ h_J u_J (which does not see
 // how the pair shares its parameters) is still the exact affine field. Measured: dense LU reports
 // the singular K; GMRES-ILUT converges to the exact field; sparse LU factorises (rounding leaves
-// tiny, non-zero pivots) and its solve returns ok = true with a relative residual ~20 and
-// parameters ~10¹³ m — wrong, and reported as fine.
+// tiny, non-zero pivots) and its answer is wrong by orders of magnitude, so the solve's residual
+// check must refuse it rather than report it as fine.
 TEST(LocalModelDegenerate, DuplicateNodesAreReportedOrHarmlessNeverNaN) {
   const Material material;
   NodeCloud cloud = box_cloud(5, 2.6);
@@ -393,7 +394,7 @@ TEST(LocalModelDegenerate, InvalidSettingsAreNamed) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// B. K_t is the condensation of the collocation system (DESIGN.md §4.5).
+// B. K_t is the condensation of the collocation system: F = K_t U_tool exactly, for any U_tool.
 
 TEST(LocalModel, ToolStiffnessIsTheCondensation) {
   LocalModelSettings settings = small_settings();
@@ -446,8 +447,8 @@ TEST(LocalModel, ToolStiffnessIsTheCondensation) {
     expect_doubled(solution.forces.haptic_N, twice.forces.haptic_N, "haptic");
   }
   // Pushing into the tissue takes positive work, d·K_t d > 0, but square point collocation does
-  // not guarantee it (measured: +48 N/m here, −7 N/m on the same hemisphere meshed coarser
-  // away from the contact): printed, not asserted. The least-squares default is asserted below.
+  // not guarantee it (the sign changes with the cloud and the surface mesh): printed, not
+  // asserted. The least-squares default is asserted below.
   const Eigen::Vector3d d = pole_contact().direction;
   std::printf("  N = %d, K_t d.d = %.4e N/m, K_t =\n", static_cast<int>(n), d.dot(model.tool_stiffness_N_per_m * d));
   for (int r = 0; r < 3; ++r)
@@ -492,7 +493,7 @@ TEST(LocalModel, PaperModeSolvesEquation7) {
   const LocalSolution solution = solve_local_model(model, u_tool);
   ASSERT_EQ(solution.status, "ok");
   const Eigen::VectorXd& p = solution.parameters;
-  // Eq. 7: U_a = U_tool exactly; K_ba U_a + K_bb U_b = 0 (the right-hand side is zero here).
+  // Eqs. 7–8: U_a = U_tool exactly; K_ba U_a + K_bb U_b = 0 (the right-hand side is zero here).
   EXPECT_EQ(p.segment<3>(0), u_tool);
   EXPECT_TRUE(model.system.constant_rhs.isZero(0.0));
   EXPECT_TRUE(model.system.tool_rhs.isZero(0.0)) << "paper mode: the tool enters through U_a, not the right-hand side";

@@ -1,6 +1,7 @@
-// MLS shape functions (DESIGN.md §4.1, §1.2): polynomial reproduction on irregular clouds,
-// finite-difference checks of every derivative, the lattice Laplacian of §1.2 and the failure
-// statuses on degenerate input.
+// MLS shape functions: reproduction of polynomials up to the basis degree on irregular clouds,
+// finite-difference checks of every derivative, the lattice Laplacian that shows the paper's
+// linear basis inconsistent for collocation (the quadratic basis is exact), and the failure
+// statuses on degenerate input (a clear status, never NaN).
 
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
 
@@ -159,7 +160,7 @@ TEST(MlsWeight, EndpointValuesAndZeroOutsideSupport) {
     }
     EXPECT_EQ(weight_and_derivatives(w, std::nan("")), Eigen::Vector3d::Zero());
   }
-  // The quartic spline's d → 0 limit quoted in DESIGN.md §4.1: W''(0) = −12.
+  // The d → 0 limit that the Hessian handles explicitly (W,ij → −12 δ_ij / r²): W''(0) = −12.
   EXPECT_DOUBLE_EQ(weight_and_derivatives(Weight::quartic_spline, 0.0)(2), -12.0);
   EXPECT_DOUBLE_EQ(weight_and_derivatives(Weight::cubic_spline, 0.0)(2), -12.0);
 }
@@ -181,7 +182,7 @@ TEST(MlsWeight, DerivativesMatchFiniteDifferences) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Polynomial reproduction (DESIGN.md §9)
+// Polynomial reproduction up to the basis degree
 
 TEST(MlsShapeFunctions, ReproducesPolynomialsOnIrregularClouds) {
   std::mt19937 rng(20240611);
@@ -263,7 +264,7 @@ TEST(MlsShapeFunctions, IndependentOfUnitsAndReportsGoodConditioning) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Derivatives against central finite differences (DESIGN.md §9)
+// Every derivative against central finite differences
 
 /// Gradients against central differences of values, Hessians against central differences of
 /// gradients, at x with step dx; the error is relative to the largest analytic entry.
@@ -334,7 +335,7 @@ TEST(MlsShapeFunctions, DerivativesAtANodeUseTheZeroDistanceLimit) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// DESIGN.md §1.2: the linear basis gets second derivatives wrong by O(1); the quadratic is exact.
+// The linear basis (the paper's) gets second derivatives wrong by O(1); the quadratic is exact.
 
 double lattice_laplacian(Basis basis, double factor) {
   Cloud cloud;
@@ -363,13 +364,13 @@ double lattice_laplacian(Basis basis, double factor) {
 
 TEST(MlsShapeFunctions, LatticeLaplacianLinearBasisIsInconsistentQuadraticIsExact) {
   const std::array<double, 4> factors = {1.5, 2.0, 2.5, 3.0};
-  const std::array<double, 4> design = {8.10, 2.82, 3.75, 2.66};  // DESIGN.md §1.2
+  const std::array<double, 4> expected = {8.10, 2.82, 3.75, 2.66};  // ∇²u_h, linear basis
   for (std::size_t i = 0; i < factors.size(); ++i) {
     const double linear = lattice_laplacian(Basis::linear, factors[i]);
     const double quadratic = lattice_laplacian(Basis::quadratic, factors[i]);
     std::cout << "[ laplacian  ] r = " << factors[i] << " h: linear " << linear << ", quadratic 3 + "
               << quadratic - 3.0 << " (exact 3)\n";
-    EXPECT_NEAR(linear, design[i], 0.005) << "r = " << factors[i] << " h";
+    EXPECT_NEAR(linear, expected[i], 0.005) << "r = " << factors[i] << " h";
     EXPECT_GT(std::abs(linear - 3.0), 0.15);  // O(1) wrong: at least 5 % at every radius
     EXPECT_NEAR(quadratic, 3.0, 3e-10);
   }

@@ -1,8 +1,8 @@
-// Acceptance 4 of issue 6: the haptic tick allocates nothing. Every heap allocation of this
-// process goes through the malloc family, interposed here; a probe around each haptic tick
-// counts what happens inside — through first contact, pressing, a re-sprinkle cross-fade,
-// extrapolation, release, the end of the trajectory.
-#include "touchstone/realtime/geometry/icosphere.hpp"
+// No heap allocation in a haptic tick: buffers are sized when the model is built. Every heap
+// allocation of this process goes through the malloc family, interposed here; a probe around
+// each haptic tick counts what happens inside — through first contact, pressing, a re-sprinkle
+// cross-fade, extrapolation, release, the end of the trajectory.
+#include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
 #include "touchstone/realtime/runtime/simulation.hpp"

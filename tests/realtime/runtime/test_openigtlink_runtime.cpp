@@ -1,8 +1,8 @@
-// Acceptance 2 of issue 6 through the whole runtime: a peer built from libOpenIGTLink streams
+// The OpenIGTLink device through the whole runtime: a peer built from libOpenIGTLink streams
 // tool poses over loopback into a threaded simulation and receives the force back as SENSOR
 // messages; when it disconnects, the force goes to zero in the tick that sees it and the run
 // ends.
-#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/realtime/haptics/openigtlink_device.hpp"
 #include "touchstone/realtime/runtime/simulation.hpp"
 

@@ -4,7 +4,7 @@
 #include "touchstone/realtime/runtime/simulation.hpp"
 
 #include "support/expect_invalid_argument.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
 

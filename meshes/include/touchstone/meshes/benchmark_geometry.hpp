@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// gmsh geometry and tetrahedral meshes of the indentation benchmarks (DESIGN.md §3).
+/// gmsh geometry and tetrahedral meshes of the indentation benchmarks B1–B5.
 ///
 /// Every mesh is written as MSH 2.2 ASCII with named physical groups whose numeric tags are
 /// fixed (see boundary_tags below), so that a reader that sees only numbers (deal.II's
@@ -14,7 +14,7 @@
 
 namespace touchstone::meshes {
 
-/// Which benchmark domain to build (DESIGN.md §3).
+/// Which benchmark domain to build.
 enum class Benchmark {
   B1,   ///< cylinder of radius W and height W, top face z = 0, base z = −W clamped, patch at the top centre
   B2,   ///< hemisphere of radius R, flat base z = 0, patch (radius a) at the pole (0, 0, R)

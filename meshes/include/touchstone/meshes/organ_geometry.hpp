@@ -1,8 +1,8 @@
 #pragma once
 /// @file
 /// Closed triangle surfaces of organ-like shapes at a requested triangle count, for collision
-/// detection studies (DESIGN.md §6, issue 5: about 500, 2,500, 17,000, 20,000 and 35,000
-/// triangles). Generated on demand (fast and deterministic), never committed.
+/// detection studies (the paper's Table 1 sizes of about 500, 2,500, 17,000 and 35,000 triangles,
+/// and the 20,000 of its stomach). Generated on demand (fast and deterministic), never committed.
 ///
 /// Shapes, built with gmsh's OpenCASCADE kernel and meshed as surfaces (triangles only, a
 /// uniform size searched until the count is within the tolerance):

@@ -2,8 +2,7 @@
 /// @file
 /// A solution field on a mesh's points, read from and written to VTK XML unstructured grids
 /// (.vtu, or the .pvtu + pieces deal.II writes under MPI): how the study runner puts the MFS
-/// field on the FEM reference's points and writes both, and their difference, for ParaView
-/// (DESIGN.md §8).
+/// field on the FEM reference's points and writes both, and their difference, for ParaView.
 
 #include <Eigen/Core>
 

@@ -1,11 +1,11 @@
 #pragma once
 /// @file
-/// Reading and writing triangle surface meshes (organ boundaries for collision detection,
-/// DESIGN.md §6) in the formats organ models come in: gmsh .msh, Wavefront .obj, STL (ASCII
-/// and binary), legacy VTK .vtk (POLYDATA) and VTK XML .vtp.
+/// Reading and writing triangle surface meshes (organ boundaries for collision detection) in the
+/// formats organ models come in: gmsh .msh, Wavefront .obj, STL (ASCII and binary), legacy VTK
+/// .vtk (POLYDATA) and VTK XML .vtp.
 ///
 /// Reading returns plain arrays plus the file's own numbering, so that validation
-/// (realtime::geometry::validate_surface, or the TriangleSurface constructor) names the element
+/// (geometry::validate_surface, or the TriangleSurface constructor) names the element
 /// of the file: "triangle 12 (STL facet 12)", "edge (3, 5) (OBJ vertices 4, 6)".
 ///
 /// Element numbers, as the usual viewers show them:
@@ -22,7 +22,7 @@
 /// Points and lines are ignored. STL coordinates are 32-bit floats in the file (VTK reads ASCII
 /// STL as floats too); the other formats keep doubles.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 
@@ -72,7 +72,7 @@ struct SurfaceMesh {
   SurfaceFormat format = SurfaceFormat::msh;
   std::vector<Eigen::Vector3d> vertices;                 ///< [m], after unit_scale
   std::vector<Eigen::Vector3i> triangles;                ///< as in the file (not reoriented)
-  realtime::geometry::SurfaceLabels labels;              ///< the file's numbers, see the file comment
+  geometry::SurfaceLabels labels;              ///< the file's numbers, see the file comment
   std::size_t polygons_triangulated = 0;  ///< quadrilaterals, larger polygons and strips split into triangles
   std::size_t vertices_welded = 0;        ///< vertices merged into an earlier one by welding
   std::size_t unused_vertices = 0;        ///< vertices no triangle refers to (kept: numbering stays the file's)
@@ -87,10 +87,10 @@ SurfaceMesh read_surface_mesh(const std::string& path, const SurfaceReadOptions&
 
 /// read_surface_mesh followed by the TriangleSurface constructor: a validated surface, or
 /// std::invalid_argument naming the file, the defect and the file's element.
-realtime::geometry::TriangleSurface load_surface(const std::string& path, const SurfaceReadOptions& options = {});
+geometry::TriangleSurface load_surface(const std::string& path, const SurfaceReadOptions& options = {});
 
 /// Every defect of a surface as read (empty: valid), its messages naming the file's elements.
-std::vector<realtime::geometry::SurfaceDefect> validate_surface_mesh(const SurfaceMesh& mesh);
+std::vector<geometry::SurfaceDefect> validate_surface_mesh(const SurfaceMesh& mesh);
 
 /// Sizes of a triangle surface, for reports; computable for any input: triangles with an index
 /// out of range or a non-finite corner are left out.

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The full-domain finite element reference: linear elasticity on a gmsh tetrahedral mesh,
-/// loaded by a rigid flat punch (DESIGN.md §3, §5). Plain structs and Eigen only: deal.II stays
+/// loaded by a rigid flat punch (benchmarks B1–B5). Plain structs and Eigen only: deal.II stays
 /// inside reference_fem/src.
 
 #include <Eigen/Core>
@@ -60,7 +60,7 @@ enum class LinearSolver {
   direct_mumps,     ///< PETSc + MUMPS sparse LU (small cases)
 };
 
-/// How the volumetric (pressure) part of the elastic energy is discretised (DESIGN.md §5.3).
+/// How the volumetric (pressure) part of the elastic energy is discretised (near-incompressibility).
 ///
 /// Both write σ = 2μ dev ε(u) + p I with the bulk modulus κ = λ + 2μ/3 [Pa]; they differ in p.
 enum class Formulation {

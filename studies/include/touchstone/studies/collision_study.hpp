@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// `touchstone collision`: the paper's collision-detection results measured (DESIGN.md §6, §8).
+/// `touchstone collision`: the paper's collision-detection results measured.
 ///
 /// Three parts, all over randomized approach–press–release trajectories with hand tremor
 /// (approach_trajectory.hpp) on generated organ surfaces (organ_geometry.hpp):
@@ -14,7 +14,7 @@
 /// - Per-cycle cost over whole runs: full detection every cycle against the predictor, split
 ///   into approach, contact and release cycles (distances, box tests, triangle tests, time).
 ///
-/// Output: results.json (the §8 contract, plus the sections "organs", "table1", "tremor",
+/// Output: results.json (the study contract, plus the sections "organs", "table1", "tremor",
 /// "cycle_cost"), config.resolved.toml, table1.csv, tremor.csv, cycle_cost.csv and report.md.
 
 #include "touchstone/meshes/organ_geometry.hpp"

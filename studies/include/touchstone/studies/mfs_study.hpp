@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// `touchstone mfs`: the MFS local model (DESIGN.md §4) on indentation problems, one case per
-/// contact condition and node count, written as results.json (the §8 contract) with a node-cloud
-/// VTU per case. No reference is run here: the study runner compares these cases with the FEM.
+/// `touchstone mfs`: the MFS local model on indentation problems, one case per contact condition
+/// and node count, written as results.json (the study contract) with a node-cloud VTU per case.
+/// No reference is run here: the study runner compares these cases with the FEM.
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
@@ -89,7 +89,7 @@ struct MfsRunOptions {
 nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options);
 
 /// The paper's model (paper_mode): the spacing s [m] of its tool-tip node at `node_count`, the
-/// radius of eq. 9's tributary disc π s² — and of the FEM punch DESIGN.md's B4 pairs with it.
+/// radius of eq. 9's tributary disc π s² — and of the FEM punch B4 pairs with it.
 /// Sprinkles only (milliseconds), on study.surface_path (must be set). Throws
 /// std::invalid_argument when the study is not in paper mode or has no surface file.
 double paper_tip_spacing_m(const MfsStudy& study, int node_count);

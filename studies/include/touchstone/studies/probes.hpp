@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// The probe points where both models report displacement (DESIGN.md §3): the axis below the
-/// tool and a surface meridian out to 8a, placed from the benchmark geometry so that the MFS
-/// engine and the FEM reference are sampled at identical points.
+/// The probe points where both models report displacement: the axis below the tool and a
+/// surface meridian out to 8a, placed from the benchmark geometry so that the MFS engine and the
+/// FEM reference are sampled at identical points.
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
 

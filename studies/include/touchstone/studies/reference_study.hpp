@@ -49,7 +49,7 @@ struct RunOptions {
 };
 
 /// Runs the study (collective over MPI ranks; rank 0 meshes and writes). Returns the
-/// results.json document (DESIGN.md §8) that was written to <output>/results.json.
+/// results.json document that was written to <output>/results.json.
 nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions& options);
 
 /// Closed forms for a rigid flat punch on a half-space [N]:

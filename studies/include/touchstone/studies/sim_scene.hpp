@@ -1,9 +1,9 @@
 #pragma once
 /// @file
-/// `touchstone sim <scene.toml>`: the real-time runtime (DESIGN.md §7) on a scene — an organ, a
-/// material, the MFS settings, a tool, a device, rates, a force mode, safety limits and outputs
-/// — run on real threads until the trajectory ends, the device disconnects or Ctrl-C, or in
-/// study mode on a virtual clock. Writes summary.json and prints the run summary.
+/// `touchstone sim <scene.toml>`: the real-time runtime on a scene — an organ, a material, the
+/// MFS settings, a tool, a device, rates, a force mode, safety limits and outputs — run on real
+/// threads until the trajectory ends, the device disconnects or Ctrl-C, or in study mode on a
+/// virtual clock. Writes summary.json and prints the run summary.
 
 #include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"

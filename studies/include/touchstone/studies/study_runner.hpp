@@ -1,14 +1,13 @@
 #pragma once
 /// @file
-/// `touchstone study`: the comparison runner (DESIGN.md §8, issue 4). One study file names the
-/// problem (benchmark, material, tool, the tool-tip depth ramp), the converged FEM reference on
-/// that problem (a `touchstone fem` study file, cached), the MFS series (each a `touchstone mfs`
-/// section swept over the node count) and the Table 2 rows. Both models receive the same tool
-/// displacement δ d at the same contact point; errors are measured at the same probe points and
-/// every error against the reference is written next to the reference's own estimated
-/// discretisation error.
+/// `touchstone study`: the comparison runner. One study file names the problem (benchmark,
+/// material, tool, the tool-tip depth ramp), the converged FEM reference on that problem (a
+/// `touchstone fem` study file, cached), the MFS series (each a `touchstone mfs` section swept
+/// over the node count) and the Table 2 rows. Both models receive the same tool displacement δ d
+/// at the same contact point; errors are measured at the same probe points and every error
+/// against the reference is written next to the reference's own estimated discretisation error.
 ///
-/// Output: results.json (the §8 contract plus "table2", "targets", "reference_summary"), CSV
+/// Output: results.json (the study contract plus "table2", "targets", "reference_summary"), CSV
 /// tables, report.md with PNG plots (reports/make_report.py, matplotlib), one folder per case.
 /// Finished MFS cases are reused when the same case (same resolved config and code version) is
 /// already in the output folder; FEM solves are reused through the reference study's cache.
@@ -31,8 +30,9 @@ struct ComparisonProblem {
   meshes::Benchmark benchmark = meshes::Benchmark::B3;  ///< B1, B2, B3 or B5 (B4: B2 and point_tool)
   /// B4 (`benchmark = "B4"` in a study): the paper's point tool on B2. Every MFS series must be
   /// in paper mode (one tool-tip node); the FEM reference of each MFS case is a flat punch of
-  /// radius equal to that case's tip-node spacing s (DESIGN.md §3), so there is one converged
-  /// reference per distinct s, its mesh sizes those of [reference] scaled by s/a.
+  /// radius equal to that case's tip-node spacing s (a point displacement has no finite force),
+  /// so there is one converged reference per distinct s, its mesh sizes those of [reference]
+  /// scaled by s/a.
   bool point_tool = false;
   double body_radius_m = 0.05;    ///< R (B2, B3, B5) or W (B1: cylinder radius = height)
   double tool_radius_m = 0.0025;  ///< a
@@ -187,15 +187,14 @@ struct AccuracyIndicator {
 constexpr double mls_energy_share_limit = 0.35;
 /// Flag "amplitude_implausible" outside these bounds of the normal amplitude per metre of depth.
 constexpr double normal_amplitude_min = 0.5, normal_amplitude_max = 2.5;
-/// Flag "force_methods_disagree" above this spread: default Galerkin cases measured 2–11 %
-/// at N ≥ 100 on B3, broken ones (tiny supports that grew: +6656 % error) 69 %.
+/// Flag "force_methods_disagree" above this spread: healthy default Galerkin cases at N ≥ 100 on
+/// B3 stay well below it, broken ones (tiny supports that grew) far above.
 constexpr double force_method_spread_limit = 0.15;
 /// Flag "unconverged_in_n" when the force moved by more than this from the series' previous N
-/// (a series doubling N between cases): a force still moving by more than DESIGN.md §11's
-/// coarsest target (5 %) is not yet that accurate, reference or not. The default Galerkin
-/// series on B3 moves 33, 17, 10 and 7.6 % from N = 100 to 800 while its error against the FEM
-/// falls 57, 34, 22 and 13 %: the change under-estimates the error, never over-estimates it
-/// there, so the flag errs on the side of silence.
+/// (a series doubling N between cases): a force still moving by more than the coarsest force
+/// target (5 %) is not yet that accurate, reference or not. On the default Galerkin series on B3
+/// the change under-estimated the error against the FEM, never over-estimated it, so the flag
+/// errs on the side of silence.
 constexpr double force_change_limit = 0.05;
 /// Flag "supports_grew" when the largest adaptive support growth exceeds 1 by more than this
 /// (the engine grows supports where the moment matrix is singular: the layout was too sparse).
@@ -207,9 +206,9 @@ constexpr double rcond_margin = 100.0;
 /// Flag "stiffness_implausible" outside [min, max] × k_hs. A rigid flat punch on a body whose
 /// clamped boundary is at least 2a away (L > 2a) is within a small factor of the half-space:
 /// B2 (R = 20a) 1.16×, B1 (W = 20a) 1.05× (FEM), B3 at L = 5a 1.6× (the Galerkin MFS's local ball
-/// on B1's flat top: 1.9–2.2× at N = 100–400), bonded ≈ frictionless as ν → 0.5, a free base near
-/// the patch softer. Tiny Galerkin supports that grew gave 12× with the force estimators agreeing
-/// (their spread 9 %): this bound is what catches them.
+/// on B1's flat top somewhat more), bonded ≈ frictionless as ν → 0.5, a free base near the patch
+/// softer. Tiny Galerkin supports that grew can be an order of magnitude too stiff while the force
+/// estimators agree (a spread under force_method_spread_limit): this bound is what catches them.
 constexpr double stiffness_ratio_min = 0.25;
 constexpr double stiffness_ratio_max = 4.0;
 
@@ -242,7 +241,7 @@ struct ProbeComparison {
 ProbeComparison compare_probes(const nlohmann::json& probes, const nlohmann::json& reference_probes);
 
 // ---------------------------------------------------------------------------------------------
-// CI accuracy regression (DESIGN.md §8): a baseline of a small study's errors, with provenance.
+// CI accuracy regression: a baseline of a small study's errors, with provenance.
 
 /// One comparison of a current value with its baseline.
 struct RegressionFinding {

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Tool-tip trajectories for prediction studies (DESIGN.md §6, paper §3): smooth hand motion —
+/// Tool-tip trajectories for prediction studies (paper §3): smooth hand motion —
 /// rest, a minimum-jerk approach along a straight line to a point on the surface and a few mm
 /// beyond it (contact and press), hold, a minimum-jerk release back to the start — with hand
 /// tremor (tremor_model.hpp) on top, sampled at the haptic rate. Start points and targets are
@@ -8,10 +8,10 @@
 ///
 /// The smooth motion stays below 10 Hz: minimum-jerk segments last at least `min_segment_s`
 /// (0.4 s: the velocity spectrum of such a segment has under 10⁻⁴ of its power above 10 Hz,
-/// measured in test_tremor_model) and join with zero velocity and acceleration.
+/// asserted in test_tremor_model) and join with zero velocity and acceleration.
 
 #include "touchstone/realtime/collision/tremor_model.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 

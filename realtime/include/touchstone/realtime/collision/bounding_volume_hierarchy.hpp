@@ -1,13 +1,13 @@
 #pragma once
 /// @file
-/// Bounding-volume hierarchy over the triangles of a closed surface (DESIGN.md §6, paper §3):
+/// Bounding-volume hierarchy over the triangles of a closed surface (paper §3):
 /// an OBB tree as in H-COLLIDE / OBBTree (default) or an AABB tree for comparison, answering the
 /// SurfaceQueries in double precision and counting the overlap tests (the paper's Table 1).
 /// collision_benchmark measures it against Embree; the tests compare it with brute force.
 
 #include "touchstone/realtime/collision/oriented_box.hpp"
 #include "touchstone/realtime/collision/surface_queries.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 
@@ -34,9 +34,9 @@ struct BvhSettings {
   BoundingVolume bounding_volume = BoundingVolume::obb;
   SplitRule split = SplitRule::median;
   /// A node with at most this many triangles is a leaf. 1 descends to single triangles as the
-  /// paper's Table 1 counts do (the collision study's "paper tree"); 2 is the default because
-  /// collision_benchmark measured it fastest for OBB at 17K–35K triangles (35K: 661 ns against
-  /// 1048 ns for 1: half the nodes, and the cost there is memory traffic).
+  /// paper's Table 1 counts do (the collision study's "paper tree"); 2 is the default because it
+  /// halves the nodes, and at 17K–35K triangles a query's cost is memory traffic
+  /// (collision_benchmark compares the two).
   int max_leaf_triangles = 2;
   /// 2: a binary tree (OBBTree, H-COLLIDE; the paper's overlap counts). 4: the binary tree with
   /// every other level collapsed, so a node tests its up to 4 grandchildren's boxes at once —

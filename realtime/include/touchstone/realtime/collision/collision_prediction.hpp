@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Collision prediction (paper §3.1–3.2, DESIGN.md §6), made safe.
+/// Collision prediction (paper §3.1–3.2), made safe.
 ///
 /// The paper: keep the last m tool-tip positions, low-pass the tool path vector (eq. 1) into the
 /// mean tool path (eq. 2), ray-cast it to a predicted collision point, and — within a straight-line
@@ -48,18 +48,16 @@
 /// certified radius itself, and if it leaves that too (the bound was violated) a prediction is
 /// forced at once and counted. Full detection near the surface and contact tracking always run
 /// every cycle. What it buys: every prediction query lands on a detection cycle (schedulable
-/// off the haptic thread). What it costs: a near zone wider by N·s_max. Measured over tremor
-/// approaches (test_collision_prediction, 0.25 m/s bound): prediction queries stay at ~30 per
-/// approach for N = 1…10, while full-detection cycles grow from ~40 (N = 1) to ~125 (N = 5)
-/// and ~195 (N = 10) per approach — with a certified corridor the haptic-rate cost is already
-/// low, so N > 1 is worth it only when prediction must leave the haptic thread.
+/// off the haptic thread). What it costs: a near zone wider by N·s_max, so the full-detection
+/// cycles per approach grow with N while the prediction queries stay about the same (see the
+/// reduced-rate sweep of test_collision_prediction) — with a certified corridor the haptic-rate
+/// cost is already low, so N > 1 is worth it only when prediction must leave the haptic thread.
 ///
-/// Measured (test_collision_prediction, brute-force queries, tremor 0.2–0.3 mm RMS per axis,
-/// approaches from 10–40 mm at 2–5 cm/s on an icosphere and on fused spheres with dimples):
-/// no contact missed; 98 % of the cycles before first contact are one distance + one
-/// comparison; per approach–press–release about 2 predictions, 8–11 re-predictions, 16–22
-/// closest-point queries, 9–12 ray casts and 35–46 segment queries, against ~1700 segment
-/// queries for full detection every cycle outside contact.
+/// test_collision_prediction holds it to full detection on every cycle (brute-force queries,
+/// tremor approaches on an icosphere and on fused spheres with dimples): no contact may be
+/// missed and none reported that full detection does not report. How many cycles are one
+/// distance + one comparison, and what an approach costs in queries against full detection
+/// every cycle, is in the top-level README (Measured: collision detection and prediction).
 ///
 /// Contact is defined as full detection every cycle would report it (`FullDetectionReference`):
 /// outside the surface, contact begins in the cycle whose motion segment P_prev → P first hits
@@ -120,9 +118,9 @@ struct PredictionSettings {
   /// m of eq. 2: previous positions averaged into the mean tool path.
   int window_samples = 30;
   /// The history takes a sample every this many haptic cycles (10 at 1 kHz: the paper's lower
-  /// system rate, 100 Hz). The window m × period must span a tremor period or more: measured in
-  /// test_tremor_model, m = 10 at 1 kHz (10 ms) predicts no better than eq. 1, while 30 samples
-  /// at 100 Hz (300 ms) cut the predicted-point error 4–6× (p90 < 1 mm at 0.2 mm tremor).
+  /// system rate, 100 Hz). The window m × period must span a tremor period or more: m = 10 at
+  /// 1 kHz (10 ms) predicts no better than eq. 1, while 30 samples at 100 Hz (300 ms) bring the
+  /// predicted-point error to about the paper's 1 mm (test_tremor_model asserts both).
   int sample_period_cycles = 10;
   /// Within this distance of the predicted point motion is taken as straight and the corridor
   /// is built (paper: 5–10 mm). Farther out only the ball around the tip is certified.
@@ -135,8 +133,8 @@ struct PredictionSettings {
   double margin_m = 1e-4;
   /// The corridor ends where a ball's check radius would fall below this; within it of the
   /// surface full detection runs every cycle (the hand-over near the predicted point).
-  /// Measured over tremor approaches: 0.25 mm needs about a third fewer queries per approach
-  /// than 1 mm (fewer full-detection cycles, a few more predictions).
+  /// 0.25 mm costs fewer queries per approach than 1 mm: fewer full-detection cycles for a few
+  /// more predictions.
   double handover_distance_m = 2.5e-4;
   /// Full detection hands back to prediction once the tip is this far from where it began.
   double near_exit_distance_m = 1e-3;

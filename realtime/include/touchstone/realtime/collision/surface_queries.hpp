@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// What collision prediction and the runtime ask of a collision detector (DESIGN.md §6): the
+/// What collision prediction and the runtime ask of a collision detector: the
 /// first hit of a segment or ray, the closest point, inside/outside — each able to count the
 /// bounding-volume overlap tests and triangle tests it made (the paper's Table 1 metric).
 /// The own bounding-volume hierarchy implements it; tests implement it by brute force.

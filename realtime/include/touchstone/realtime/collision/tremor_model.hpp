@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Physiological hand tremor for studies (paper §3.2, DESIGN.md §6): band-limited noise in the
+/// Physiological hand tremor for studies (paper §3.2): band-limited noise in the
 /// 7–12 Hz band, of a chosen RMS amplitude, in 3-D, sampled at the haptic rate (1 kHz), to add
 /// to smooth hand motion (≤ 10 Hz; see approach_trajectory.hpp). Deterministic for a seed and
 /// bit-reproducible across platforms up to libm (own random number generator).
@@ -89,8 +89,9 @@ struct TremorSettings {
   double band_high_hz = 12.0;
   double sample_rate_hz = 1000.0;
   TremorSpectrum spectrum = TremorSpectrum::band_noise;
-  /// Butterworth prototype order n (band_noise): n biquads per axis. 6 puts 94 % of the power
-  /// between the −3 dB edges and 99.99 % within 5–15 Hz (4: 90 %; measured in test_tremor_model).
+  /// Butterworth prototype order n (band_noise): n biquads per axis. 6 keeps ≥ 90 % of the power
+  /// between the −3 dB edges and ≥ 99 % within 5–15 Hz (asserted in test_tremor_model); lower
+  /// orders leak more of it out of the band.
   int filter_order = 6;
   int sinusoid_count = 32;     ///< sinusoids per axis (sinusoids)
   std::uint64_t seed = 1;
@@ -101,7 +102,7 @@ struct TremorSettings {
 /// Generates tremor samples one at a time: constant cost, no allocation, any length.
 class TremorGenerator {
  public:
-  /// Designs the filter (or draws the sinusoids) and lets the filter settle, so that the
+  /// Builds the filter (or draws the sinusoids) and lets the filter settle, so that the
   /// first sample is already from the stationary process. Throws on invalid settings.
   explicit TremorGenerator(const TremorSettings& settings);
 

@@ -1,11 +1,11 @@
 #pragma once
 /// @file
-/// What the graphics loop (30 Hz, DESIGN.md §7) hands to its outputs: the deformed organ, the
+/// What the graphics loop (30 Hz) hands to its outputs: the deformed organ, the
 /// tool and the force. Outputs — a VTK/PVD time series for ParaView, an interactive VTK window,
 /// the OpenIGTLink POLYDATA stream to 3D Slicer — implement GraphicsSink; the loop calls them
 /// from the graphics thread only, never from the haptic thread.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// An interactive VTK window for the graphics loop (DESIGN.md §7): the deformed organ, the
+/// An interactive VTK window for the graphics loop: the deformed organ, the
 /// tool (tip sphere and shaft) and the force on the hand as an arrow from the tool tip, with a
 /// trackball camera the user can turn while the simulation runs. Each frame() renders and then
 /// processes the window's pending events without blocking; closing the window (the window

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The graphics loop's output for ParaView (DESIGN.md §7): a time series of VTK XML PolyData
+/// The graphics loop's output for ParaView: a time series of VTK XML PolyData
 /// files (binary, appended, zlib-compressed) with two PVD collections that index them by time.
 ///
 /// Per written frame, in `output_directory`:
@@ -45,7 +45,7 @@ struct VtkTimeSeriesSettings {
   /// written frame and at end()).
   int pvd_rewrite_every = 10;
   /// zlib level, 1 (fastest) … 9 (smallest). Deformed coordinates hardly compress, so 1 is
-  /// about as small as 5 and twice as fast (20,000 triangles: ~8 ms against ~15 ms per frame).
+  /// about as small as 5 and much faster to write.
   int compression_level = 1;
   int tool_sphere_resolution = 16;  ///< segments around the tip sphere and the shaft (>= 3)
 

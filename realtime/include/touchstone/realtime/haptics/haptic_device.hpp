@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// What the runtime asks of a haptic device (DESIGN.md §7): the tool pose in, the force out.
+/// What the runtime asks of a haptic device: the tool pose in, the force out.
 /// Every backend — scripted trajectories, replay of a recording, an OpenIGTLink peer, an
 /// OpenHaptics device — sits behind this interface, and the haptic loop does not know which.
 ///

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The OpenHaptics backend (DESIGN.md §7): a 3D Systems Touch / Phantom device through the HD
+/// The OpenHaptics backend: a 3D Systems Touch / Phantom device through the HD
 /// API. 3D Systems' SDK is not in Debian, so the backend is compiled only when CMake finds it
 /// (TOUCHSTONE_HAVE_OPENHAPTICS). This header includes nothing from the SDK: without it, it
 /// declares only `openhaptics_available = false` and is harmless to include.

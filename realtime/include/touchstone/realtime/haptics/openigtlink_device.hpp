@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The OpenIGTLink haptic device (DESIGN.md §7): a TCP server that 3D Slicer or a tracker
+/// The OpenIGTLink haptic device: a TCP server that 3D Slicer or a tracker
 /// connects to. The tool pose comes in as TRANSFORM or POSITION messages, the force on the
 /// user's hand goes out as a SENSOR message (3 values, newtons) at a fixed rate, and, as a
 /// graphics sink, the deformed organ goes out as POLYDATA (plus the tool as a TRANSFORM).

@@ -1,13 +1,13 @@
 #pragma once
 /// @file
-/// The scripted hand of the palpation demo (paper §6, DESIGN.md §7): at each site on the organ
+/// The scripted hand of the palpation demo (paper §6): at each site on the organ
 /// the tool approaches along the normal, presses, holds, slides along the surface, holds and
 /// releases, then lifts and moves to the next site — minimum-jerk segments (smooth hand motion
-/// below 10 Hz, as the collision issue's approach trajectories) with physiological tremor on
+/// below 10 Hz, as in collision/approach_trajectory.hpp) with physiological tremor on
 /// top (collision/tremor_model.hpp), sampled at the haptic rate. Deterministic for a seed.
 
 #include "touchstone/realtime/collision/tremor_model.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The safety layer on every force sent to a device (DESIGN.md §7). Whatever the model, the
+/// The safety layer on every force sent to a device. Whatever the model, the
 /// network or a bug produces, the device sees a finite force no larger than the clamp, changing
 /// no faster than the rate limit — with one exception: a disconnect or shutdown drops the force
 /// to zero at once, because removing the force is what a device does when its controller goes.

@@ -1,11 +1,11 @@
 #pragma once
 /// @file
 /// Parts of the organ surface held at u = 0 — an organ's attachment, the clamped base of the
-/// benchmark hemisphere (DESIGN.md §3). When the local ball reaches them (a contact near the
+/// benchmark hemisphere. When the local ball reaches them (a contact near the
 /// base of B5), the local model must hold them too, or it treats the attachment as free
 /// surface and comes out too soft. The weak form imposes them like the cut: a penalty on a
-/// surface quadrature, whose force joins the reaction (DESIGN.md §4.6 (b): minus the reaction
-/// on all fixed boundaries).
+/// surface quadrature, whose force joins the reaction (force extraction (b), global
+/// equilibrium: minus the reaction on all fixed boundaries).
 
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// Point collocation of linear elasticity with MLS shape functions: K U = f (paper eq. 6,
-/// DESIGN.md §4.2). Three rows per node (CollocationRow), 3N unknowns u_J (nodal parameters, not
-/// displacements: MLS does not interpolate).
+/// Point collocation of linear elasticity with MLS shape functions: K U = f (paper eq. 6).
+/// Three rows per node (CollocationRow), 3N unknowns u_J (nodal parameters, not displacements:
+/// MLS does not interpolate).
 
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"

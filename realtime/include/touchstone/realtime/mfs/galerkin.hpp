@@ -5,15 +5,14 @@
 /// weakly, by a penalty α ∫ Hᵀ P H dA (default) or Nitsche's method. Unlike point
 /// collocation it is symmetric, has no Neumann rows to destabilise (traction-free is natural),
 /// and the tool force — the boundary flux on the patch — balances the cut's exactly
-/// (Σ_J h_J = 1). The paper replaced it by point collocation for speed; both are offered
-/// (DESIGN.md §4).
+/// (Σ_J h_J = 1). The paper replaced it by point collocation for speed; both are offered.
 ///
 /// Nitsche adds the consistency terms −∫ (σ(u)n)·P v − ∫ (σ(v)n)·P (u − ū): the exact
 /// solution satisfies the weak form for any α, so α need only be large enough for coercivity.
-/// Measured on B3 (touchstone mfs, frictionless, N = 409): penalty β = 100 +20.6 %, Nitsche
-/// β = 100 +20.3 % — the constraint is not what limits the accuracy (the resolution of the
-/// punch edge and the volume quadrature are); and Nitsche with β = 100 loses positive
-/// definiteness at N = 414, so the penalty stays the default.
+/// On B3 the penalty and Nitsche give nearly the same force (top-level README, Measured: the
+/// first MFS models) — the constraint is not what limits the accuracy (the resolution of the
+/// punch edge and the volume quadrature are); and Nitsche with β = 100 can lose positive
+/// definiteness on fine clouds, so the penalty stays the default.
 
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
@@ -53,7 +52,7 @@ struct GalerkinSystem {
   Eigen::Matrix<double, Eigen::Dynamic, 3> tool_rhs;
   Eigen::Matrix3d patch_tool_map = Eigen::Matrix3d::Zero();   ///< A_patch [N/m]
   Eigen::Matrix<double, 3, Eigen::Dynamic> patch_map, cut_map;  ///< M_patch, M_cut [N/m]
-  /// The paper's partition (eq. 9) in the weak form: the tool-patch nodes (ascending), their
+  /// The paper's partition force (eq. 9) in the weak form: the tool-patch nodes (ascending), their
   /// rows of the elastic K (3 per node, before the constraints), ∫_patch h_a dA [m²] and
   /// ∫_patch h_a h_b dA [m²]. Row a applied to the solution is ∫_patch h_a λ dA [N], λ the
   /// constraint's traction; local_model's paper_map weights the rows so that the weighted shape

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Solvers for the unsymmetric collocation system K U = f (DESIGN.md §4.4): dense LU for small
+/// Solvers for the unsymmetric collocation system K U = f: dense LU for small
 /// N, sparse LU with the symbolic analysis reused while the sparsity pattern stays the same,
 /// and restarted GMRES with an incomplete-LU preconditioner (the paper used LU and GMRES).
 

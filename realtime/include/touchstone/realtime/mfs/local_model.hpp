@@ -1,14 +1,14 @@
 #pragma once
 /// @file
-/// The local MFS model of one contact (paper §4, DESIGN.md §4): sprinkle the nodes, assemble
-/// the collocation system, factorise it once, and condense it to the 3×3 tool stiffness K_t
-/// (§4.5). The model is linear in the tool displacement U_tool, so one build serves every
+/// The local MFS model of one contact (paper §4): sprinkle the nodes, assemble the collocation
+/// system, factorise it once, and condense it to the 3×3 tool stiffness K_t. The model is
+/// linear in the tool displacement U_tool, so one build serves every
 /// U_tool until the contact moves: F = K_t U_tool is exact for the model, nine multiply-adds.
 ///
 /// Model/data split: LocalModel is built once per contact and then only read; LocalSolution is
 /// what one tool displacement produces.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/clamped_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
@@ -26,7 +26,7 @@
 
 namespace touchstone::realtime::mfs {
 
-/// The four force extractions of DESIGN.md §4.6. They differ at finite N and must agree as N grows.
+/// The four force extractions. They differ at finite N and must agree as N grows.
 enum class ForceMethod : std::uint8_t {
   /// (a) ∫_patch σ(u_h) n dA, evaluated in its domain form ∫_Ω σ(u_h) ∇w dV (w = 1 on the
   /// patch, 0 on the cut: extraction_quadrature). The surface form is reported too
@@ -34,7 +34,7 @@ enum class ForceMethod : std::uint8_t {
   traction_integral,
   reaction,           ///< (b) −∫_cut σ(u_h) n dA: equilibrium of the local domain
   energy,             ///< (c) F·U_tool = 2U, U = ½∫_Ω σ:ε dV: the component along U_tool only
-  /// (d) the paper's partition, eq. 9, rows scaled by the patch nodes' shares: collocation —
+  /// (d) the paper's partition force, eq. 9, rows scaled by the patch nodes' shares: collocation —
   /// each patch node's traction row × its tributary area; Galerkin — each patch node's elastic
   /// row (K_el U)_a = ∫_patch h_a λ dA (a force already) × s_a, where Σ_a s_a h_a ≈ 1 on the
   /// patch (least squares; s_a = 1 for interpolating shape functions: the FEM's reaction).
@@ -105,8 +105,9 @@ LocalModelSettings paper_settings();
 
 /// The haptic force method that suits a formulation: the reaction for the weak form (its
 /// constraint force, which balances the cut exactly); for collocation (whose reaction on the cut
-/// is off by hundreds of per cent) and the paper's model, the paper's partition (eq. 9) — cheap,
-/// where the traction integral's domain form costs a shell quadrature (~50 ms at N = 34).
+/// is off by hundreds of per cent) and the paper's model, the paper's partition force (eq. 9) —
+/// cheap, where the traction integral's domain form costs a shell quadrature of thousands of
+/// points.
 ForceMethod default_haptic_method(Formulation formulation, bool paper_mode);
 
 /// Wall times of a build [s].

@@ -11,7 +11,7 @@
 /// questions become a few dozen flops. A fit whose largest residual exceeds 1e-3 L, or too few
 /// vertices, falls back to the exact queries; `fitted()` says which one answers.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
 

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// Moving-least-squares shape functions of the Method of Finite Spheres (paper eqs. 3–5,
-/// DESIGN.md §4.1): h_J(x) = W_J(x) p(x)ᵀ A(x)⁻¹ p(x_J), A(x) = Σ_J W_J(x) p(x_J) p(x_J)ᵀ,
+/// Moving-least-squares shape functions of the Method of Finite Spheres (paper eqs. 3–5):
+/// h_J(x) = W_J(x) p(x)ᵀ A(x)⁻¹ p(x_J), A(x) = Σ_J W_J(x) p(x_J) p(x_J)ᵀ,
 /// with values, gradients and Hessians from one factorisation of A.
 
 #include <Eigen/Core>

@@ -35,7 +35,7 @@ struct CollocationRow {
 };
 
 /// A collocation point that is not a node (least-squares collocation writes more equations
-/// than there are unknowns: DESIGN.md §4.2, stabilisation). Same rows and data as a node.
+/// than there are unknowns, which stabilises the traction rows). Same rows and data as a node.
 struct CollocationPoint {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   NodeKind kind = NodeKind::interior;

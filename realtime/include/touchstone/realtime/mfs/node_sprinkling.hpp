@@ -1,10 +1,10 @@
 #pragma once
 /// @file
-/// Local node sprinkling (paper §4, DESIGN.md §4.3): when the tool touches the organ, nodes are
+/// Local node sprinkling (paper §4): when the tool touches the organ, nodes are
 /// placed in the local domain Ω = organ ∩ ball(contact, L), each with a sphere of finite
 /// radius, and each node gets its collocation rows. Works on any closed triangle surface.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
 
@@ -49,8 +49,8 @@ struct SprinklingSettings {
   OuterCondition outer = OuterCondition::clamped;
   /// Collocation points per node (about): 1 = square point collocation; > 1 adds extra points
   /// (the same sprinkling, denser) and K U = f is solved in the least-squares sense, which
-  /// stabilises the traction rows (DESIGN.md §4.2; measured: square collocation flips the sign
-  /// of the tool stiffness as N changes, least squares does not).
+  /// stabilises the traction rows (square collocation flips the sign of the tool stiffness as N
+  /// changes, least squares does not).
   double oversampling = 3.0;
   /// The paper's tool (B4): one tool-tip node and no patch rings. The tip node carries the
   /// natural traction rows of a surface node; the model prescribes its parameters (eq. 7).

@@ -1,9 +1,9 @@
 #pragma once
 /// @file
-/// Tool force from a solved local model (DESIGN.md §4.6), and the 3×3 tool stiffness K_t that
-/// lets the haptic loop compute F = K_t U_tool exactly in nine multiply-adds (§4.5).
+/// Tool force from a solved local model, and the 3×3 tool stiffness K_t that lets the haptic
+/// loop compute F = K_t U_tool exactly in nine multiply-adds.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 

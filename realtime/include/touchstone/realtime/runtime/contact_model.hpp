@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The force at haptic rate from what the model loop publishes (DESIGN.md §4.5, §7).
+/// The force at haptic rate from what the model loop publishes.
 ///
 /// The local MFS model is linear in the tool displacement U = tip − c (c the contact point the
 /// model was built at), so the haptic loop evaluates the model's force exactly every tick:

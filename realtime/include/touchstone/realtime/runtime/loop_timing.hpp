@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Timing of the runtime's periodic loops (DESIGN.md §7, §11): an absolute-deadline scheduler
+/// Timing of the runtime's periodic loops: an absolute-deadline scheduler
 /// (sleep until shortly before the deadline, then spin — the kernel's wake-up is late by tens of
 /// microseconds on a non-real-time kernel, the spin tail absorbs it) and a fixed-size histogram
 /// of lateness, filled with no allocation, from which the run summary reports p50/p99/max and
@@ -45,7 +45,8 @@ struct LoopStatistics {
   /// Lateness of the tick's start against its deadline [s].
   double lateness_p50_s = 0, lateness_p99_s = 0, lateness_max_s = 0;
   /// Ticks that started more than `late_threshold_s` after their deadline (0.5 ms for the
-  /// haptic loop, DESIGN.md §11), and deadlines skipped entirely because a tick overran.
+  /// haptic loop, whose target allows at most 0.2 % of ticks that late), and deadlines skipped
+  /// entirely because a tick overran.
   long long late_ticks = 0;
   double late_threshold_s = 0;
   long long skipped_deadlines = 0;

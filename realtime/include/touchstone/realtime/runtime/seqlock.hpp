@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// A single-writer sequence lock: how the runtime's threads hand small values (a tool pose, the
-/// model's K_t and contact frame, a force) to each other without a mutex (DESIGN.md §7).
+/// model's K_t and contact frame, a force) to each other without a mutex (the haptic thread
+/// never takes one).
 ///
 /// The writer never waits; a reader retries only while a write is in progress, and the haptic
 /// thread does not even do that: it calls try_load() once and keeps its previous value when a

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The running system (paper §5–6, Fig. 7; DESIGN.md §7): a haptic loop at 1 kHz, a model loop
+/// The running system (paper §5–6, Fig. 7): a haptic loop at 1 kHz, a model loop
 /// at ~200 Hz and a graphics loop at 30 Hz share one organ.
 ///
 ///   haptic (1 kHz)   device pose → contact (prediction: one distance + one comparison per tick
@@ -28,7 +28,7 @@
 
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/graphics/graphics_sink.hpp"
 #include "touchstone/realtime/haptics/haptic_device.hpp"
 #include "touchstone/realtime/haptics/safety_filter.hpp"
@@ -87,7 +87,8 @@ struct TimingSettings {
   double spin_tail_s = 1e-4;   ///< busy-wait before each deadline
   bool request_fifo = true;    ///< ask for SCHED_FIFO (a refusal is reported, not fatal)
   int fifo_priority = 80;
-  /// A haptic tick starting later than this after its deadline counts as late (DESIGN.md §11).
+  /// A haptic tick starting later than this after its deadline counts as late (the timing
+  /// target: at most 0.2 % of the haptic ticks more than 0.5 ms late).
   double late_threshold_s = 5e-4;
   void validate() const;
 };
@@ -121,7 +122,7 @@ struct ForceSample {
   bool in_contact = false;
 };
 
-/// Work done and skipped (DESIGN.md §7 "skip what a scene doesn't need").
+/// Work done and skipped: a scene skips the work it doesn't need, and these counters show it.
 struct WorkCounters {
   long long haptic_ticks = 0;
   long long free_ticks = 0;              ///< no contact

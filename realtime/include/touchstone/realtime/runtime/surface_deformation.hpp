@@ -1,11 +1,11 @@
 #pragma once
 /// @file
-/// The deformed organ for graphics (DESIGN.md §7): the local MFS field applied to the surface
+/// The deformed organ for graphics: the local MFS field applied to the surface
 /// vertices inside the local domain — and only to them. The field is linear in the tool
 /// displacement, so the model loop precomputes, once per local model, a 3×3 map per vertex
 /// (u_v = G_v U + g_v); a graphics frame is then one 3×3 product per local vertex.
 
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 
 #include <Eigen/Core>

@@ -1,11 +1,11 @@
-#include "touchstone/realtime/geometry/icosphere.hpp"
+#include "touchstone/geometry/icosphere.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <utility>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 
 TriangleMeshData icosphere(int level, double radius_m) {
   const double g = (1 + std::sqrt(5.0)) / 2;
@@ -36,4 +36,4 @@ TriangleMeshData icosphere(int level, double radius_m) {
   return mesh;
 }
 
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry

@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 
 /// Closest-point features: 0 the face interior, 1 + k edge k (corner k → k + 1), 4 + k corner k.
 inline constexpr int face_feature = 0;
@@ -61,4 +61,4 @@ inline Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen
   return a + ab * (vb * denominator) + ac * (vc * denominator);
 }
 
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry

@@ -1,7 +1,7 @@
 #include "support/temporary_directory.hpp"
 #include "support/expect_invalid_argument.hpp"
-#include "touchstone/realtime/geometry/icosphere.hpp"
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
 
@@ -28,7 +28,7 @@
 
 #include <unistd.h>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 namespace {
 
 using touchstone::testing::TemporaryDirectory;
@@ -963,4 +963,4 @@ TEST(TriangleSurfaceMsh, ReadMshSurfaceKeepsGmshLabelsWithoutValidating) {
 }
 
 }  // namespace
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry

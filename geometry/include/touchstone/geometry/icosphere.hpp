@@ -7,7 +7,7 @@
 
 #include <vector>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 
 struct TriangleMeshData {
   std::vector<Eigen::Vector3d> vertices;   ///< [m]
@@ -18,4 +18,4 @@ struct TriangleMeshData {
 /// origin: 20 · 4^level triangles.
 TriangleMeshData icosphere(int level, double radius_m);
 
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry

@@ -2,9 +2,10 @@
 /// @file
 /// A closed triangle surface (an organ's boundary) with the queries node sprinkling needs:
 /// closest point with its normal, signed distance and inside/outside, through an AABB tree;
-/// and the validation that every surface passes on load (DESIGN.md §6), also available as a
-/// non-throwing list of every defect (validate_surface) for `touchstone surface check`.
-/// (Collision detection, issue 5, adds OBB trees, segment queries and overlap-test counters.)
+/// and the validation that every surface passes on load, also available as a non-throwing
+/// list of every defect (validate_surface) for `touchstone surface check`.
+/// (collision/bounding_volume_hierarchy.hpp adds OBB trees, segment queries and overlap-test
+/// counters.)
 
 #include <Eigen/Core>
 
@@ -12,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 
 /// How a file numbers its vertices and triangles, so that messages point into the file:
 /// "triangle 12 (STL facet 12)", "edge (3, 5) (gmsh nodes 40, 50)". Tags are optional: empty
@@ -145,4 +146,4 @@ class TriangleSurface {
   double volume_m3_ = 0;
 };
 
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry

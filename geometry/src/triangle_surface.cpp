@@ -1,6 +1,6 @@
-#include "touchstone/realtime/geometry/triangle_surface.hpp"
+#include "touchstone/geometry/triangle_surface.hpp"
 
-#include "touchstone/realtime/geometry/closest_point_on_triangle.hpp"
+#include "touchstone/geometry/closest_point_on_triangle.hpp"
 
 #include <Eigen/Geometry>
 
@@ -26,7 +26,7 @@
 #include <utility>
 #include <vector>
 
-namespace touchstone::realtime::geometry {
+namespace touchstone::geometry {
 
 namespace {
 
@@ -1235,4 +1235,4 @@ double TriangleSurface::area_m2() const { return area_m2_; }
 
 double TriangleSurface::volume_m3() const { return volume_m3_; }
 
-}  // namespace touchstone::realtime::geometry
+}  // namespace touchstone::geometry
