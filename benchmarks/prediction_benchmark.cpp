@@ -11,8 +11,8 @@
 // - mean_tool_path: eq. 2 over m = 30 (evaluated when the tip leaves its corridor);
 // - tremor_sample: one 3-D tremor sample (6 biquads per axis, or 32 sinusoids per axis).
 //
-//   ./build/release/benchmarks/prediction_benchmark --benchmark_repetitions=5 \
-//       --benchmark_report_aggregates_only=true
+//   ./build/release/benchmarks/prediction_benchmark --benchmark_repetitions=5
+//       --benchmark_report_aggregates_only=true   (one command line)
 #include "brute_force_queries.hpp"
 
 #include "touchstone/realtime/collision/approach_trajectory.hpp"

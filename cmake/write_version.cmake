@@ -11,11 +11,12 @@ if(NOT dirty STREQUAL "")
   set(git_hash "${git_hash}-dirty")
 endif()
 # The FEM cache key: a hash of every source that decides a reference solution (the FEM, the
-# meshes, the reference study, probes and config parsing), so that a commit that touches none of
+# meshes and the geometry core they read surfaces into, the reference study, probes and config parsing), so that a commit that touches none of
 # them keeps the cached FEM solves valid — the git hash would throw them away on every commit.
 file(GLOB_RECURSE fem_sources LIST_DIRECTORIES false
   ${SOURCE_DIR}/reference_fem/*.cpp ${SOURCE_DIR}/reference_fem/*.hpp ${SOURCE_DIR}/reference_fem/CMakeLists.txt
-  ${SOURCE_DIR}/meshes/*.cpp ${SOURCE_DIR}/meshes/*.hpp ${SOURCE_DIR}/meshes/CMakeLists.txt)
+  ${SOURCE_DIR}/meshes/*.cpp ${SOURCE_DIR}/meshes/*.hpp ${SOURCE_DIR}/meshes/CMakeLists.txt
+  ${SOURCE_DIR}/geometry/*.cpp ${SOURCE_DIR}/geometry/*.hpp ${SOURCE_DIR}/geometry/CMakeLists.txt)
 list(APPEND fem_sources
   ${SOURCE_DIR}/studies/src/reference_study.cpp ${SOURCE_DIR}/studies/src/reference_study_config.cpp
   ${SOURCE_DIR}/studies/src/probes.cpp ${SOURCE_DIR}/studies/src/config_reader.cpp

@@ -48,7 +48,7 @@ ReferenceStudy read_reference_study(ConfigTable& config) {
 
   ConfigTable tool = config.table("tool");
   study.punch.depth_m = tool.quantity("depth", Dimension::length, 0.1 * study.geometry.tool_radius_m);
-  const auto direction = tool.vector3("direction", Dimension::dimensionless, {0.0, 0.0, -1.0});
+  const auto direction = tool.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
   study.punch.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
   study.punch.contact = fem::contact_from_string(tool.choice("contact", {"frictionless", "bonded"}, "frictionless"));
 

@@ -23,8 +23,12 @@ TEST(Richardson, RecoversTheLimitAndOrderOfAnExactPowerLaw) {
     EXPECT_NEAR(r.finest_relative_error, (finest - 16.3) / 16.3, 1e-12);
     EXPECT_TRUE(r.asymptotic);
     // The uncertainty compares with the theoretical order 1: zero exactly when they agree.
-    if (order == 1.0) EXPECT_NEAR(r.extrapolated_relative_uncertainty, 0.0, 1e-12);
-    if (order > 1.0) EXPECT_GT(r.extrapolated_relative_uncertainty, 0.0);
+    if (order == 1.0) {
+      EXPECT_NEAR(r.extrapolated_relative_uncertainty, 0.0, 1e-12);
+    }
+    if (order > 1.0) {
+      EXPECT_GT(r.extrapolated_relative_uncertainty, 0.0);
+    }
   }
 }
 

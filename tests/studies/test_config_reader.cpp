@@ -156,7 +156,7 @@ nodes = [100, 200, 400]
   EXPECT_DOUBLE_EQ(problem.quantity("radius", Dimension::length, 1.0), 0.01);
   EXPECT_DOUBLE_EQ(problem.quantity("modulus", Dimension::pressure), 3.0);
   EXPECT_DOUBLE_EQ(problem.quantity("poisson", Dimension::dimensionless), 0.49);
-  const auto direction = problem.vector3("direction", Dimension::length, {0, 0, 0});
+  const auto direction = problem.vector3("direction", Dimension::length, {{0, 0, 0}});
   EXPECT_DOUBLE_EQ(direction[0], 0.0);
   EXPECT_DOUBLE_EQ(direction[1], 0.0);
   EXPECT_DOUBLE_EQ(direction[2], -1.0);
@@ -176,7 +176,7 @@ TEST(ConfigTable, DefaultsWhenAbsent) {
   EXPECT_FALSE(config.boolean("b", false));
   EXPECT_EQ(config.string("s", "d"), "d");
   EXPECT_EQ(config.choice("c", {"a", "b"}, "b"), "b");
-  EXPECT_EQ(config.vector3("v", Dimension::length, {1, 2, 3}), (std::array<double, 3>{1, 2, 3}));
+  EXPECT_EQ(config.vector3("v", Dimension::length, {{1, 2, 3}}), (std::array<double, 3>{{1, 2, 3}}));
   EXPECT_EQ(config.quantity_list("l", Dimension::time, {1.0}), (std::vector<double>{1.0}));
   EXPECT_EQ(config.integer_list("i", {4}), (std::vector<std::int64_t>{4}));
   ConfigTable absent = config.table("solver");
@@ -268,7 +268,7 @@ sub = 4
                       {"types.toml: problem.name: expected a string", "got an integer"});
   expect_config_error([&] { problem.number("scale", 0.0); },
                       {"types.toml: problem.scale: expected a number"});
-  expect_config_error([&] { problem.vector3("direction", Dimension::length, {0, 0, 0}); },
+  expect_config_error([&] { problem.vector3("direction", Dimension::length, {{0, 0, 0}}); },
                       {"types.toml: problem.direction", "3 elements", "got 2"});
   expect_config_error([&] { problem.integer_list("nodes", {}); },
                       {"types.toml: problem.nodes[1]: expected an integer"});

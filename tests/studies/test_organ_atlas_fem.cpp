@@ -55,8 +55,11 @@ TEST(OrganAtlasHalfSpace, ClosedFormConvergesAndHasThePunchSymmetry) {
   EXPECT_LT((k - fine).cwiseAbs().maxCoeff(), 1e-9 * k(0, 0));
   EXPECT_NEAR(k(1, 1), k(2, 2), 1e-9 * k(1, 1));
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (i != j) EXPECT_LT(std::abs(k(i, j)), 1e-9 * k(0, 0)) << i << ", " << j;
+    for (int j = 0; j < 3; ++j) {
+      if (i != j) {
+        EXPECT_LT(std::abs(k(i, j)), 1e-9 * k(0, 0)) << i << ", " << j;
+      }
+    }
   const double punch = realtime::mfs::punch_half_space_stiffness_N_per_m(realtime::mfs::PunchMode::normal, a, m);
   EXPECT_GT(k(0, 0), 0.0);
   EXPECT_LT(k(0, 0), punch);

@@ -31,8 +31,11 @@ TEST(Probes, OffPoleContactRotatesTheProbes) {
   g.contact_polar_angle_rad = 0.5;
   const Eigen::Vector3d n = outward_normal(g);
   EXPECT_NEAR((contact_point(g) - g.body_radius_m * n).norm(), 0.0, 1e-15);
-  for (const auto& p : indentation_probes(g, -n))
-    if (p.name.rfind("meridian", 0) == 0) EXPECT_NEAR(p.position_m.norm(), g.body_radius_m, 1e-15) << p.name;
+  for (const auto& p : indentation_probes(g, -n)) {
+    if (p.name.rfind("meridian", 0) == 0) {
+      EXPECT_NEAR(p.position_m.norm(), g.body_radius_m, 1e-15) << p.name;
+    }
+  }
 }
 
 TEST(Probes, CylinderProbesLieOnTheFlatTopAndTheAxisBelowTheOrigin) {

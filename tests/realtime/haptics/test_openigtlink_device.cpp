@@ -87,8 +87,9 @@ std::vector<unsigned char> raw_message(const char* type, const std::vector<unsig
   igtl_header header;
   std::memset(&header, 0, sizeof header);
   header.version = version;
-  std::strncpy(header.name, type, IGTL_HEADER_TYPE_SIZE);
-  std::strncpy(header.device_name, "TestPeer", IGTL_HEADER_NAME_SIZE);
+  // Fixed-size fields, NUL-padded by the memset, not necessarily NUL-terminated.
+  std::memcpy(header.name, type, std::min(std::strlen(type), sizeof header.name));
+  std::memcpy(header.device_name, "TestPeer", std::min(std::strlen("TestPeer"), sizeof header.device_name));
   header.body_size = announced_body_size;
   std::vector<unsigned char> copy = body;
   header.crc = crc64(copy.data(), copy.size(), crc64(nullptr, 0, 0));

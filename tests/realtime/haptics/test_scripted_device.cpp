@@ -48,9 +48,11 @@ TEST(PalpationTrajectory, PressesToTheDepthAtEverySiteAndEndsOutside) {
       EXPECT_NEAR((site - x).dot(n), p.press_depth_m, 1e-12);
       ++holds;
     }
-    if (segment.phase == PalpationPhase::transfer || segment.phase == PalpationPhase::rest)
-      for (int k = segment.begin; k < segment.end; k += 50)
+    if (segment.phase == PalpationPhase::transfer || segment.phase == PalpationPhase::rest) {
+      for (int k = segment.begin; k < segment.end; k += 50) {
         EXPECT_GT(sphere().signed_distance(path.smooth[k]), 0.0) << "sample " << k << " is inside while free";
+      }
+    }
   }
   EXPECT_EQ(holds, 2 * path.palpations);  // before and after each slide
   EXPECT_GT(sphere().signed_distance(path.smooth.back()), 0.0);

@@ -128,7 +128,7 @@ Field affine_field() {
   g << 1.0e-2, 2.0e-3, -3.0e-3, 5.0e-3, -2.0e-2, 1.0e-3, -4.0e-3, 3.0e-3, 1.5e-2;
   const Eigen::Vector3d c(1.0e-5, -2.0e-5, 3.0e-5);
   return {[g, c](const Eigen::Vector3d& x) { return Eigen::Vector3d(g * x + c); },
-          [g](const Eigen::Vector3d&) { return g; }, Eigen::Vector3d::Zero()};
+          [g](const Eigen::Vector3d&) { return g; }, Eigen::Vector3d::Zero(), {}};
 }
 
 /// u = s (x², y²/2 + xz/4, yz): ∇u linear, body force constant.

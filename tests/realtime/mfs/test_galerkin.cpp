@@ -52,7 +52,9 @@ TEST(Galerkin, StiffnessIsSymmetricAndTheToolBalancesTheCut) {
     EXPECT_LT((patch_force - solution.forces.reaction_N).norm(), 1e-9 * patch_force.norm());
     EXPECT_LT((solution.forces.haptic_N - solution.forces.reaction_N).norm(), 1e-9 * patch_force.norm());
     // Penalty: the work of the tool is the strain energy plus the penalty's, F·U ≥ 2U.
-    if (constraint == Constraint::penalty) EXPECT_GT(solution.forces.reaction_N.dot(push), 2 * solution.forces.energy_J * (1 - 1e-9));
+    if (constraint == Constraint::penalty) {
+      EXPECT_GT(solution.forces.reaction_N.dot(push), 2 * solution.forces.energy_J * (1 - 1e-9));
+    }
   }
 }
 

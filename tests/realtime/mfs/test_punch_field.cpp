@@ -128,7 +128,7 @@ TEST(PunchField, StressesAreInEquilibrium) {
   const Material material = unit_material();
   const double h = 1e-5;
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1})
-    for (const Eigen::Vector3d x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
+    for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
       Eigen::Vector3d divergence = Eigen::Vector3d::Zero();
       for (int j = 0; j < 3; ++j) {
         const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(j);

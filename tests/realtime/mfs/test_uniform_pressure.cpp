@@ -116,7 +116,8 @@ Deflection measure_deflection(const NodeCloud& cloud, const Eigen::VectorXd& par
 /// Boussinesq on the cut; solves and returns the downward deflection (positive).
 enum class Load { uniform_disk, point_force_above };
 
-Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
+// Each build of this file (collocation, Galerkin) uses one of the two solvers below.
+[[maybe_unused]] Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
   const ToolContact contact = disk_contact();
   NodeCloud cloud = sprinkle_box(node_count, oversampling);
   const double force_N = pi * a_m * a_m * pressure_Pa;
@@ -168,7 +169,7 @@ Deflection solve(const Material& m, int node_count, double oversampling, Load lo
 /// The same problems in the weak form (galerkin.hpp): the pressure is the load ∫ h_J t̄ dA on
 /// the disk, traction-free is natural, the cut's Boussinesq values are imposed like the cut's
 /// u = 0 of the punch (Nitsche or penalty).
-Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Constraint constraint) {
+[[maybe_unused]] Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Constraint constraint) {
   const ToolContact contact = disk_contact();
   const NodeCloud cloud = sprinkle_box(node_count, 1);
   const double force_N = pi * a_m * a_m * pressure_Pa;
@@ -238,7 +239,9 @@ TEST(UniformPressureGalerkin, SmoothPointForceFieldIsReproduced) {
     for (const int n : {200, 400, 800}) {
       const Deflection w = solve_galerkin(m, n, Load::point_force_above, constraint);
       std::printf("  %s N = %d: centre %.4e m (%+.2f %%)\n", to_string(constraint).c_str(), n, w.centre_m, 100 * (w.centre_m / centre - 1));
-      if (n == 800) EXPECT_NEAR(w.centre_m / centre, 1.0, 0.02) << to_string(constraint) << ", N = " << n;
+      if (n == 800) {
+        EXPECT_NEAR(w.centre_m / centre, 1.0, 0.02) << to_string(constraint) << ", N = " << n;
+      }
     }
 }
 #else
@@ -267,7 +270,9 @@ TEST(UniformPressure, SmoothPointForceFieldIsReproduced) {
   for (const int n : {200, 400, 800}) {
     const Deflection w = solve(m, n, 3.0, Load::point_force_above);
     std::printf("  N = %d: centre %.4e m (%+.2f %%)\n", n, w.centre_m, 100 * (w.centre_m / centre - 1));
-    if (n == 800) EXPECT_NEAR(w.centre_m / centre, 1.0, 0.02) << "N = " << n;
+    if (n == 800) {
+      EXPECT_NEAR(w.centre_m / centre, 1.0, 0.02) << "N = " << n;
+    }
   }
 }
 

@@ -158,7 +158,7 @@ class OpenIgtLinkDevice final : public HapticDevice, public graphics::GraphicsSi
   /// What the network thread publishes to the haptic thread.
   struct PoseRecord {
     runtime::PlainVector3 position_m{};
-    std::array<double, 4> orientation_wxyz{1.0, 0.0, 0.0, 0.0};
+    std::array<double, 4> orientation_wxyz{{1.0, 0.0, 0.0, 0.0}};
     std::uint64_t pose_count = 0;  ///< valid poses since start(); changes mean "fresh"
     bool connected = false;
   };
