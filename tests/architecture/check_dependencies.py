@@ -5,7 +5,7 @@
     geometry  <-  realtime
     meshes, reference_fem, realtime  <-  studies
 
-deal.II stays inside reference_fem/. This check fails, naming the file and line, when a source
+deal.II stays inside reference_fem/, and inside realtime/ no two folders include each other. This check fails, naming the file and line, when a source
 file includes a header of a folder it must not depend on, or when a folder's CMakeLists.txt
 links a library target it must not depend on.
 
@@ -61,10 +61,33 @@ def main(root: pathlib.Path) -> int:
                 for target in LINK.findall(line):
                     if target in [LIBRARY_NAME[o] for o in FORBIDDEN.get(folder, [])]:
                         problems.append(f"{cmake.relative_to(root)}:{number}: {folder}/ must not link touchstone::{target}")
+    problems += mutual_includes(root / "realtime", "touchstone/realtime/")
     for problem in problems:
         print(problem)
     print(f"{len(problems)} forbidden dependencies" if problems else "dependency directions: ok")
     return 1 if problems else 0
+
+
+def mutual_includes(library: pathlib.Path, prefix: str) -> list:
+    """Inside one library, no two of its folders (realtime/mfs, realtime/runtime, …) may include
+    each other: one of them has to sit below the other."""
+    edges = {}
+    for path in sorted(library.rglob("*")):
+        if path.suffix not in {".hpp", ".cpp", ".h"}:
+            continue
+        parts = path.relative_to(library).parts
+        # include/touchstone/realtime/<folder>/… or src/<folder>/…
+        folder = parts[3] if parts[0] == "include" and len(parts) > 4 else parts[1] if parts[0] == "src" and len(parts) > 2 else None
+        if folder is None:
+            continue
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            match = INCLUDE.match(line)
+            if match and match.group(1).startswith(prefix):
+                rest = match.group(1)[len(prefix):].split("/")
+                if len(rest) > 1 and rest[0] != folder:
+                    edges.setdefault((folder, rest[0]), f"{path.relative_to(library.parent)}:{number}")
+    return [f"{where}: {a}/ includes {b}/ and {edges[(b, a)]} includes back: the two folders depend on each other"
+            for (a, b), where in sorted(edges.items()) if (b, a) in edges and a < b]
 
 
 def self_test() -> int:
@@ -80,6 +103,8 @@ def self_test() -> int:
             "reference_fem/src/d.cpp": '#include "touchstone/studies/config.hpp"\n',
             "meshes/CMakeLists.txt": "target_link_libraries(m PUBLIC touchstone::realtime)\n",
             "studies/src/e.cpp": '#include "touchstone/realtime/mfs/x.hpp"\n',  # allowed
+            "realtime/src/haptics/f.cpp": '#include "touchstone/realtime/runtime/y.hpp"\n',
+            "realtime/include/touchstone/realtime/runtime/y.hpp": '#include "touchstone/realtime/haptics/z.hpp"\n',
         }
         for name, text in files.items():
             (root / name).parent.mkdir(parents=True, exist_ok=True)
@@ -92,7 +117,8 @@ def self_test() -> int:
             status = main(root)
         text = out.getvalue()
         expected = ["geometry/src/a.cpp:1", "meshes/src/b.cpp:1", "realtime/src/c.cpp:1",
-                    "reference_fem/src/d.cpp:1", "meshes/CMakeLists.txt:1", "5 forbidden dependencies"]
+                    "reference_fem/src/d.cpp:1", "meshes/CMakeLists.txt:1",
+                    "haptics/ includes runtime/", "6 forbidden dependencies"]
         missing = [e for e in expected if e not in text]
         if status != 1 or missing or "studies/src/e.cpp" in text:
             print(text)

@@ -99,7 +99,7 @@ void OpenHapticsDevice::start() {
   render_zero_.store(false, std::memory_order_release);
   device_fault_.store(false, std::memory_order_release);
   servo_force_N_ = {};
-  force_.store(runtime::PlainVector3{});
+  force_.store(concurrency::PlainVector3{});
   hdEnable(HD_FORCE_OUTPUT);
   check(false, "hdEnable(HD_FORCE_OUTPUT)");
   const HDSchedulerHandle callback = hdScheduleAsynchronous(&servo_callback, this, HD_MAX_SCHEDULER_PRIORITY);
@@ -120,7 +120,7 @@ bool OpenHapticsDevice::servo_tick() noexcept {
   hdGetDoublev(HD_CURRENT_TRANSFORM, transform);
 
   // A force write in flight keeps the previous force for this tick (≤ 1 tick late).
-  runtime::PlainVector3 force{};
+  concurrency::PlainVector3 force{};
   if (force_.try_load(force)) servo_force_N_ = force;
   HDdouble out[3] = {0, 0, 0};
   if (!render_zero_.load(std::memory_order_acquire))
@@ -139,12 +139,12 @@ bool OpenHapticsDevice::servo_tick() noexcept {
   for (int c = 0; c < 3; ++c)
     for (int r = 0; r < 3; ++r) rotation(r, c) = transform[4 * c + r];
   const Eigen::Vector3d position =
-      runtime::eigen(settings_.origin_m) +
+      concurrency::eigen(settings_.origin_m) +
       settings_.length_unit_m * Eigen::Vector3d(position_mm[0], position_mm[1], position_mm[2]);
   if (position.allFinite() && rotation.allFinite()) {
     // The stylus runs along the gimbal frame's +z from the tip, as DeviceSample::orientation.
     const Eigen::Quaterniond orientation = Eigen::Quaterniond(rotation).normalized();
-    servo_pose_.position_m = runtime::plain(position);
+    servo_pose_.position_m = concurrency::plain(position);
     servo_pose_.orientation_wxyz = {orientation.w(), orientation.x(), orientation.y(), orientation.z()};
     servo_pose_.tick += 1;
     pose_.store(servo_pose_);
@@ -156,7 +156,7 @@ DeviceSample OpenHapticsDevice::read(double /*time_s*/) noexcept {
   ServoPose pose;
   if (pose_.try_load(pose)) last_pose_ = pose;
   DeviceSample sample;
-  sample.tip_position_m = runtime::eigen(last_pose_.position_m);
+  sample.tip_position_m = concurrency::eigen(last_pose_.position_m);
   sample.orientation = Eigen::Quaterniond(last_pose_.orientation_wxyz[0], last_pose_.orientation_wxyz[1],
                                           last_pose_.orientation_wxyz[2], last_pose_.orientation_wxyz[3]);
   // No pose before the first servo tick: not connected yet.
@@ -168,7 +168,7 @@ DeviceSample OpenHapticsDevice::read(double /*time_s*/) noexcept {
 }
 
 void OpenHapticsDevice::write_force(const Eigen::Vector3d& force_N, double /*time_s*/) noexcept {
-  force_.store(runtime::plain(bounded_force_N(force_N, max_force_N_.load(std::memory_order_relaxed))));
+  force_.store(concurrency::plain(bounded_force_N(force_N, max_force_N_.load(std::memory_order_relaxed))));
 }
 
 void OpenHapticsDevice::stop() noexcept {

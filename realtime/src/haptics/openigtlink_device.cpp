@@ -208,7 +208,7 @@ struct OpenIgtLinkDevice::Network {
   // Published pose (network thread's copy) and the force stream.
   PoseRecord published{};
   Clock::time_point next_force_time{};
-  runtime::PlainVector3 last_force_N{};
+  concurrency::PlainVector3 last_force_N{};
 
   // libOpenIGTLink messages, created by start() (before the thread runs) and reused.
   igtl::MessageHeader::Pointer header_message;
@@ -593,7 +593,7 @@ OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::accept_position(
 
 void OpenIgtLinkDevice::Network::publish_pose(const Eigen::Vector3d& position_m,
                                               const Eigen::Quaterniond& orientation) {
-  published.position_m = runtime::plain(position_m);
+  published.position_m = concurrency::plain(position_m);
   published.orientation_wxyz = {orientation.w(), orientation.x(), orientation.y(), orientation.z()};
   published.pose_count += 1;
   published.connected = true;
@@ -601,7 +601,7 @@ void OpenIgtLinkDevice::Network::publish_pose(const Eigen::Vector3d& position_m,
 }
 
 void OpenIgtLinkDevice::Network::send_force(bool zero, bool wait_for_lock) {
-  runtime::PlainVector3 force{};
+  concurrency::PlainVector3 force{};
   if (!zero) {
     // A write in flight keeps the previous force: the next period brings the new one.
     if (device.force_.try_load(force)) last_force_N = force;
@@ -719,7 +719,7 @@ DeviceSample OpenIgtLinkDevice::read(double /*time_s*/) noexcept {
   PoseRecord record;
   if (pose_.try_load(record)) last_pose_ = record;
   DeviceSample sample;
-  sample.tip_position_m = runtime::eigen(last_pose_.position_m);
+  sample.tip_position_m = concurrency::eigen(last_pose_.position_m);
   sample.orientation = Eigen::Quaterniond(last_pose_.orientation_wxyz[0], last_pose_.orientation_wxyz[1],
                                           last_pose_.orientation_wxyz[2], last_pose_.orientation_wxyz[3]);
   sample.connected = last_pose_.connected;
@@ -730,7 +730,7 @@ DeviceSample OpenIgtLinkDevice::read(double /*time_s*/) noexcept {
 }
 
 void OpenIgtLinkDevice::write_force(const Eigen::Vector3d& force_N, double /*time_s*/) noexcept {
-  force_.store(runtime::plain(bounded_force_N(force_N, settings_.max_force_N)));
+  force_.store(concurrency::plain(bounded_force_N(force_N, settings_.max_force_N)));
 }
 
 void OpenIgtLinkDevice::stop() noexcept {

@@ -2,7 +2,7 @@
 // Private to realtime/src/runtime: the state the three loops of a Simulation share, and what
 // they hand each other. Public types are in include/touchstone/realtime/runtime/simulation.hpp.
 
-#include "touchstone/realtime/runtime/seqlock.hpp"
+#include "touchstone/realtime/concurrency/seqlock.hpp"
 #include "touchstone/realtime/runtime/simulation.hpp"
 #include "touchstone/realtime/runtime/surface_deformation.hpp"
 
@@ -16,6 +16,8 @@
 #include <vector>
 
 namespace touchstone::realtime::runtime {
+
+using concurrency::Seqlock;
 
 inline double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -27,8 +27,8 @@ inline constexpr bool openhaptics_available = false;
 
 #if defined(TOUCHSTONE_HAVE_OPENHAPTICS)
 
-#include "touchstone/realtime/runtime/plain_types.hpp"
-#include "touchstone/realtime/runtime/seqlock.hpp"
+#include "touchstone/realtime/concurrency/plain_types.hpp"
+#include "touchstone/realtime/concurrency/seqlock.hpp"
 
 #include <array>
 #include <atomic>
@@ -87,7 +87,7 @@ class OpenHapticsDevice final : public HapticDevice {
 
  private:
   struct ServoPose {
-    runtime::PlainVector3 position_m{};
+    concurrency::PlainVector3 position_m{};
     std::array<double, 4> orientation_wxyz{1.0, 0.0, 0.0, 0.0};
     std::uint64_t tick = 0;
   };
@@ -95,13 +95,13 @@ class OpenHapticsDevice final : public HapticDevice {
 
   OpenHapticsSettings settings_;
   std::unique_ptr<Handles> handles_;
-  runtime::Seqlock<ServoPose> pose_;               ///< servo thread → haptic thread
-  runtime::Seqlock<runtime::PlainVector3> force_;  ///< haptic thread → servo thread [N]
+  concurrency::Seqlock<ServoPose> pose_;               ///< servo thread → haptic thread
+  concurrency::Seqlock<concurrency::PlainVector3> force_;  ///< haptic thread → servo thread [N]
   std::atomic<bool> render_zero_{false};           ///< stop(): the servo renders zero from now on
   std::atomic<bool> device_fault_{false};
   std::atomic<double> max_force_N_{0.0};
   // Servo-thread state.
-  runtime::PlainVector3 servo_force_N_{};
+  concurrency::PlainVector3 servo_force_N_{};
   ServoPose servo_pose_{};
   // Haptic-thread state of read().
   ServoPose last_pose_{};

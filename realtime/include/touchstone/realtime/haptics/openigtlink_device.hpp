@@ -25,8 +25,8 @@
 
 #include "touchstone/realtime/graphics/graphics_sink.hpp"
 #include "touchstone/realtime/haptics/haptic_device.hpp"
-#include "touchstone/realtime/runtime/plain_types.hpp"
-#include "touchstone/realtime/runtime/seqlock.hpp"
+#include "touchstone/realtime/concurrency/plain_types.hpp"
+#include "touchstone/realtime/concurrency/seqlock.hpp"
 
 #include <array>
 #include <atomic>
@@ -157,7 +157,7 @@ class OpenIgtLinkDevice final : public HapticDevice, public graphics::GraphicsSi
  private:
   /// What the network thread publishes to the haptic thread.
   struct PoseRecord {
-    runtime::PlainVector3 position_m{};
+    concurrency::PlainVector3 position_m{};
     std::array<double, 4> orientation_wxyz{{1.0, 0.0, 0.0, 0.0}};
     std::uint64_t pose_count = 0;  ///< valid poses since start(); changes mean "fresh"
     bool connected = false;
@@ -166,8 +166,8 @@ class OpenIgtLinkDevice final : public HapticDevice, public graphics::GraphicsSi
   struct Graphics;  // the organ's POLYDATA message of the graphics thread
 
   OpenIgtLinkSettings settings_;
-  runtime::Seqlock<PoseRecord> pose_;              ///< network thread → haptic thread
-  runtime::Seqlock<runtime::PlainVector3> force_;  ///< haptic thread → network thread [N]
+  concurrency::Seqlock<PoseRecord> pose_;              ///< network thread → haptic thread
+  concurrency::Seqlock<concurrency::PlainVector3> force_;  ///< haptic thread → network thread [N]
   // Haptic-thread state of read().
   PoseRecord last_pose_{};
   std::uint64_t last_read_pose_count_ = 0;

@@ -12,13 +12,19 @@
 /// Tissue pushes, it does not pull: a force whose component along the push direction d is
 /// negative (the tool is outside the undeformed surface) is zero.
 
-#include "touchstone/realtime/runtime/plain_types.hpp"
+#include "touchstone/realtime/concurrency/plain_types.hpp"
 
 #include <Eigen/Core>
 
 #include <cstdint>
 
 namespace touchstone::realtime::runtime {
+
+// The loops hand these plain values to each other (concurrency/plain_types.hpp).
+using concurrency::eigen;
+using concurrency::plain;
+using concurrency::PlainMatrix3;
+using concurrency::PlainVector3;
 
 enum class ForceMode : std::uint8_t {
   stiffness,      ///< F = K_t U every haptic tick: exact for the linear model (default)

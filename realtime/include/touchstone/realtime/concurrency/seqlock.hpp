@@ -16,7 +16,7 @@
 #include <cstring>
 #include <type_traits>
 
-namespace touchstone::realtime::runtime {
+namespace touchstone::realtime::concurrency {
 
 template <class T>
 class Seqlock {
@@ -67,4 +67,4 @@ class Seqlock {
   std::array<std::atomic<std::uint64_t>, word_count> words_{};
 };
 
-}  // namespace touchstone::realtime::runtime
+}  // namespace touchstone::realtime::concurrency

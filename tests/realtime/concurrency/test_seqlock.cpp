@@ -1,6 +1,6 @@
-// The Seqlock (realtime/runtime/seqlock): a reader never sees a torn value, under a writer that
+// The Seqlock (realtime/concurrency/seqlock): a reader never sees a torn value, under a writer that
 // never stops — the test ThreadSanitizer runs (tsan preset) to show the hand-off is race-free.
-#include "touchstone/realtime/runtime/seqlock.hpp"
+#include "touchstone/realtime/concurrency/seqlock.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <chrono>
 #include <thread>
 
-namespace touchstone::realtime::runtime {
+namespace touchstone::realtime::concurrency {
 namespace {
 
 /// Every word equals the sequence number: a torn read shows as words that differ.
@@ -73,4 +73,4 @@ TEST(Seqlock, ReadersNeverSeeATornValue) {
 }
 
 }  // namespace
-}  // namespace touchstone::realtime::runtime
+}  // namespace touchstone::realtime::concurrency

@@ -7,7 +7,7 @@
 
 #include <array>
 
-namespace touchstone::realtime::runtime {
+namespace touchstone::realtime::concurrency {
 
 using PlainVector3 = std::array<double, 3>;
 using PlainMatrix3 = std::array<double, 9>;  ///< column-major, as Eigen
@@ -21,4 +21,4 @@ inline PlainMatrix3 plain(const Eigen::Matrix3d& m) noexcept {
 }
 inline Eigen::Matrix3d eigen(const PlainMatrix3& m) noexcept { return Eigen::Map<const Eigen::Matrix3d>(m.data()); }
 
-}  // namespace touchstone::realtime::runtime
+}  // namespace touchstone::realtime::concurrency
