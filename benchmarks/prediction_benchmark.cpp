@@ -15,9 +15,9 @@
 //       --benchmark_report_aggregates_only=true   (one command line)
 #include "brute_force_queries.hpp"
 
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 
@@ -33,19 +33,19 @@
 namespace {
 
 using Eigen::Vector3d;
-using touchstone::realtime::collision::ApproachSettings;
-using touchstone::realtime::collision::ApproachTrajectoryGenerator;
+using touchstone::realtime::hand_motion::ApproachSettings;
+using touchstone::realtime::hand_motion::ApproachTrajectoryGenerator;
 using touchstone::realtime::collision::CollisionPrediction;
 using touchstone::realtime::collision::CollisionPredictor;
 using touchstone::realtime::collision::Corridor;
 using touchstone::realtime::collision::PredictionSettings;
 using touchstone::realtime::collision::PredictionStatus;
 using touchstone::realtime::collision::QueryCounters;
-using touchstone::realtime::collision::RandomStream;
+using touchstone::realtime::hand_motion::RandomStream;
 using touchstone::realtime::collision::ToolPathHistory;
-using touchstone::realtime::collision::TremorGenerator;
-using touchstone::realtime::collision::TremorSettings;
-using touchstone::realtime::collision::TremorSpectrum;
+using touchstone::realtime::hand_motion::TremorGenerator;
+using touchstone::realtime::hand_motion::TremorSettings;
+using touchstone::realtime::hand_motion::TremorSpectrum;
 using touchstone::realtime::collision::predict_collision;
 using touchstone::realtime::collision::testing::BruteForceQueries;
 namespace geometry = touchstone::geometry;

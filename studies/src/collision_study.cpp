@@ -24,6 +24,7 @@
 namespace touchstone::studies {
 namespace fs = std::filesystem;
 namespace rc = realtime::collision;
+namespace hm = realtime::hand_motion;
 using Eigen::Vector3d;
 using nlohmann::json;
 
@@ -39,7 +40,7 @@ rc::BoundingVolume volume_from(const std::string& name) {
   return name == "aabb" ? rc::BoundingVolume::aabb : rc::BoundingVolume::obb;
 }
 std::string split_name(rc::SplitRule s) { return s == rc::SplitRule::mean ? "mean" : "median"; }
-std::string spectrum_name(rc::TremorSpectrum s) { return s == rc::TremorSpectrum::sinusoids ? "sinusoids" : "band_noise"; }
+std::string spectrum_name(hm::TremorSpectrum s) { return s == hm::TremorSpectrum::sinusoids ? "sinusoids" : "band_noise"; }
 
 std::string organ_id(const meshes::OrganParameters& organ) {
   return meshes::to_string(organ.shape) + "-" + std::to_string(organ.target_triangles);
@@ -200,11 +201,11 @@ Organ make_organ(const meshes::OrganParameters& parameters) {
   return organ;
 }
 
-std::vector<rc::ApproachTrajectory> make_trajectories(const geometry::TriangleSurface& surface,
-                                                      const rc::ApproachSettings& settings, int count,
+std::vector<hm::ApproachTrajectory> make_trajectories(const geometry::TriangleSurface& surface,
+                                                      const hm::ApproachSettings& settings, int count,
                                                       std::uint64_t seed) {
-  const rc::ApproachTrajectoryGenerator generator(surface, settings);
-  std::vector<rc::ApproachTrajectory> trajectories;
+  const hm::ApproachTrajectoryGenerator generator(surface, settings);
+  std::vector<hm::ApproachTrajectory> trajectories;
   trajectories.reserve(static_cast<std::size_t>(count));
   for (int i = 0; i < count; ++i) trajectories.push_back(generator.generate(seed + static_cast<std::uint64_t>(i)));
   return trajectories;
@@ -225,9 +226,9 @@ struct ReferenceRun {
   int without_contact = 0;
 };
 
-ReferenceRun run_full_detection(const rc::SurfaceQueries& tree, const std::vector<rc::ApproachTrajectory>& trajectories) {
+ReferenceRun run_full_detection(const rc::SurfaceQueries& tree, const std::vector<hm::ApproachTrajectory>& trajectories) {
   ReferenceRun run;
-  for (const rc::ApproachTrajectory& t : trajectories) {
+  for (const hm::ApproachTrajectory& t : trajectories) {
     rc::FullDetectionReference reference(tree);
     std::vector<std::uint8_t> phase(t.tip.size()), began(t.tip.size());
     bool contacted = false;
@@ -271,11 +272,11 @@ struct PredictionRun {
 };
 
 PredictionRun run_prediction(const rc::SurfaceQueries& tree, const rc::PredictionSettings& settings,
-                             const std::vector<rc::ApproachTrajectory>& trajectories, const ReferenceRun& reference) {
+                             const std::vector<hm::ApproachTrajectory>& trajectories, const ReferenceRun& reference) {
   PredictionRun run;
   rc::CollisionPredictor predictor(tree, settings);
   for (std::size_t i = 0; i < trajectories.size(); ++i) {
-    const rc::ApproachTrajectory& t = trajectories[i];
+    const hm::ApproachTrajectory& t = trajectories[i];
     predictor.reset();
     for (std::size_t k = 0; k < t.tip.size(); ++k) {
       const rc::PredictionCounters before = predictor.counters();
@@ -571,7 +572,7 @@ std::string report_markdown(const json& document, const CollisionStudy& study, c
 // ---------------------------------------------------------------------------------------------
 // Shared measurements.
 
-double predicted_point_error_m(const rc::SurfaceQueries& surface, const rc::ApproachTrajectory& t, int window_samples,
+double predicted_point_error_m(const rc::SurfaceQueries& surface, const hm::ApproachTrajectory& t, int window_samples,
                                int sample_period_cycles, double evaluate_at_m) noexcept {
   int k = t.approach_begin;
   while (k < t.approach_end && (t.smooth[static_cast<std::size_t>(k)] - t.target).norm() > evaluate_at_m) ++k;
@@ -747,7 +748,7 @@ CollisionStudy read_collision_study(ConfigTable& config) {
   }
 
   ConfigTable approach = config.table("approach");
-  rc::ApproachSettings& a = study.approach;
+  hm::ApproachSettings& a = study.approach;
   study.trajectories = read_int(approach, "trajectories", study.trajectories);
   study.seed = read_seed(approach, "seed", study.seed);
   a.start_distance_min_m = approach.quantity("start_distance_min", Dimension::length, a.start_distance_min_m);
@@ -763,13 +764,13 @@ CollisionStudy read_collision_study(ConfigTable& config) {
   a.min_segment_s = approach.quantity("min_segment", Dimension::time, a.min_segment_s);
   a.sample_rate_hz = approach.number("sample_rate_hz", a.sample_rate_hz);
   ConfigTable tremor = approach.table("tremor");
-  rc::TremorSettings& ts = a.tremor;
+  hm::TremorSettings& ts = a.tremor;
   ts.rms_per_axis_m = tremor.quantity("rms_per_axis", Dimension::length, ts.rms_per_axis_m);
   ts.band_low_hz = tremor.number("band_low_hz", ts.band_low_hz);
   ts.band_high_hz = tremor.number("band_high_hz", ts.band_high_hz);
   ts.spectrum = tremor.choice("spectrum", {"band_noise", "sinusoids"}, spectrum_name(ts.spectrum)) == "sinusoids"
-                    ? rc::TremorSpectrum::sinusoids
-                    : rc::TremorSpectrum::band_noise;
+                    ? hm::TremorSpectrum::sinusoids
+                    : hm::TremorSpectrum::band_noise;
   ts.filter_order = read_int(tremor, "filter_order", ts.filter_order);
   ts.sinusoid_count = read_int(tremor, "sinusoid_count", ts.sinusoid_count);
   ts.sample_rate_hz = a.sample_rate_hz;
@@ -821,7 +822,7 @@ std::string resolved_config_toml(const CollisionStudy& study) {
   }
   bvh.insert("bounding_volume", volumes);
   bvh.insert("trees", tree_names);
-  const rc::ApproachSettings& a = study.approach;
+  const hm::ApproachSettings& a = study.approach;
   const rc::PredictionSettings& p = study.prediction;
   const TremorStudySettings& t = study.tremor;
   toml::array amplitudes, windows, periods;
@@ -940,7 +941,7 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
     Organ& organ = organs.back();
     organ_index[{parameters.shape, parameters.target_triangles}] = organs.size() - 1;
     const auto trajectories_start = std::chrono::steady_clock::now();
-    const std::vector<rc::ApproachTrajectory> trajectories =
+    const std::vector<hm::ApproachTrajectory> trajectories =
         make_trajectories(*organ.surface, study.approach, study.trajectories, study.seed);
     long long cycles = 0;
     for (const auto& t : trajectories) cycles += static_cast<long long>(t.tip.size());
@@ -1095,10 +1096,10 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
     const rc::BoundingVolumeHierarchy bvh(*organ.surface, settings);
     for (const double amplitude : t.amplitudes_m) {
       const auto amplitude_start = std::chrono::steady_clock::now();
-      rc::ApproachSettings approach = study.approach;
+      hm::ApproachSettings approach = study.approach;
       approach.start_distance_min_m = t.start_distance_min_m;
       approach.tremor.rms_per_axis_m = amplitude;
-      const std::vector<rc::ApproachTrajectory> trajectories =
+      const std::vector<hm::ApproachTrajectory> trajectories =
           make_trajectories(*organ.surface, approach, t.trajectories, t.seed);
       for (const int period : t.sample_period_cycles)
         for (const int m : t.windows) {

@@ -1,6 +1,6 @@
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 
 #include <Eigen/Geometry>
 
@@ -45,7 +45,7 @@ class Builder {
     const int samples = std::max(1, static_cast<int>(std::lround(seconds * settings_.sample_rate_hz)));
     PalpationSegment segment{phase, site, static_cast<int>(out_.smooth.size()), 0};
     for (int k = 1; k <= samples; ++k) {
-      const double s = collision::minimum_jerk(static_cast<double>(k) / samples);
+      const double s = hand_motion::minimum_jerk(static_cast<double>(k) / samples);
       out_.smooth.push_back(from + s * (to - from));
       out_.tool_axis.push_back(axis);
     }
@@ -101,7 +101,7 @@ PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& o
   settings.validate();
   PalpationTrajectory out;
   out.sample_period_s = 1.0 / settings.sample_rate_hz;
-  collision::RandomStream random(settings.seed);
+  hand_motion::RandomStream random(settings.seed);
 
   // Sites: the given points projected, or the top of the organ and random points around it.
   std::vector<Eigen::Vector3d> queries = settings.sites;
@@ -184,12 +184,12 @@ PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& o
     builder.rest(out.smooth.back(), remaining, site == 0 ? site_count - 1 : site - 1, out.tool_axis.back());
 
   // Tremor on top of the hand motion.
-  collision::TremorSettings tremor = settings.tremor;
+  hand_motion::TremorSettings tremor = settings.tremor;
   tremor.sample_rate_hz = settings.sample_rate_hz;
   tremor.seed = settings.seed * 0x9e3779b97f4a7c15ULL + 17;
   out.tip = out.smooth;
   if (tremor.rms_per_axis_m > 0) {
-    collision::TremorGenerator generator(tremor);
+    hand_motion::TremorGenerator generator(tremor);
     for (auto& x : out.tip) x += generator.next();
   }
   return out;

@@ -9,7 +9,7 @@
 // test_collision_prediction_large (label large: five times the trajectories, finer meshes).
 #include "brute_force_queries.hpp"
 
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
@@ -35,6 +35,7 @@ namespace {
 using Eigen::Vector3d;
 using geometry::TriangleMeshData;
 using geometry::TriangleSurface;
+using namespace touchstone::realtime::hand_motion;  // the approach paths and tremor fed to the predictor
 using testing::BruteForceQueries;
 using testing::CountingQueries;
 

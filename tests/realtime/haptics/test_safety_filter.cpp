@@ -4,7 +4,7 @@
 #include "touchstone/realtime/haptics/safety_filter.hpp"
 
 #include "support/expect_invalid_argument.hpp"
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 
 #include <gtest/gtest.h>
 
@@ -124,7 +124,7 @@ TEST(SafetyFilter, FirstTickAndBackwardClockGiveNoAllowance) {
 TEST(SafetyFilter, NeverExceedsTheClampOrTheRateLimitUnderInjectedFaults) {
   const SafetySettings s = settings();
   SafetyFilter filter(s);
-  collision::RandomStream random(42);
+  hand_motion::RandomStream random(42);
   Eigen::Vector3d previous = Eigen::Vector3d::Zero();
   long long disconnects = 0;
   for (int k = 0; k < 200000; ++k) {

@@ -18,7 +18,7 @@
 /// "cycle_cost"), config.resolved.toml, table1.csv, tremor.csv, cycle_cost.csv and report.md.
 
 #include "touchstone/meshes/organ_geometry.hpp"
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
 #include "touchstone/realtime/collision/surface_queries.hpp"
@@ -74,7 +74,7 @@ struct CollisionStudy {
   /// structure and count) and "default" (BvhSettings{}).
   std::vector<CollisionTree> trees;
   /// The approaches of Table 1 and the per-cycle cost (tremor included).
-  realtime::collision::ApproachSettings approach;
+  realtime::hand_motion::ApproachSettings approach;
   int trajectories = 200;
   std::uint64_t seed = 1;
   /// The predictor of the per-cycle cost; cycle_period_s is 1 / approach.sample_rate_hz.
@@ -126,7 +126,7 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
 /// distance from the hit to the target. +∞ when the ray misses (within 0.5 m), NaN when the
 /// window reaches before the first sample.
 double predicted_point_error_m(const realtime::collision::SurfaceQueries& surface,
-                               const realtime::collision::ApproachTrajectory& trajectory, int window_samples,
+                               const realtime::hand_motion::ApproachTrajectory& trajectory, int window_samples,
                                int sample_period_cycles, double evaluate_at_m) noexcept;
 
 /// The paper's Table 1 overlap counts (9, 12, 14, 16 at 500, 2.5K, 17K, 35K triangles), by

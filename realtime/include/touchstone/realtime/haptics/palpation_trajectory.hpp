@@ -3,10 +3,10 @@
 /// The scripted hand of the palpation demo (paper §6): at each site on the organ
 /// the tool approaches along the normal, presses, holds, slides along the surface, holds and
 /// releases, then lifts and moves to the next site — minimum-jerk segments (smooth hand motion
-/// below 10 Hz, as in collision/approach_trajectory.hpp) with physiological tremor on
-/// top (collision/tremor_model.hpp), sampled at the haptic rate. Deterministic for a seed.
+/// below 10 Hz, as in hand_motion/approach_trajectory.hpp) with physiological tremor on
+/// top (hand_motion/tremor_model.hpp), sampled at the haptic rate. Deterministic for a seed.
 
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
@@ -37,7 +37,7 @@ struct PalpationSettings {
   double sample_rate_hz = 1000.0;
   /// Tremor on top of the smooth motion; its sample rate is set to sample_rate_hz and its seed
   /// derived from `seed`. rms_per_axis_m = 0: none.
-  collision::TremorSettings tremor;
+  hand_motion::TremorSettings tremor;
   std::uint64_t seed = 1;
   /// Throws std::invalid_argument naming the field.
   void validate() const;

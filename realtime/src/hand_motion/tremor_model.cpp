@@ -1,4 +1,4 @@
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace touchstone::realtime::collision {
+namespace touchstone::realtime::hand_motion {
 
 namespace {
 
@@ -157,4 +157,4 @@ Eigen::Vector3d TremorGenerator::next() noexcept {
   return sample;
 }
 
-}  // namespace touchstone::realtime::collision
+}  // namespace touchstone::realtime::hand_motion

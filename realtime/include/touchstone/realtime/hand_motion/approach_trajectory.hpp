@@ -10,7 +10,7 @@
 /// (0.4 s: the velocity spectrum of such a segment has under 10⁻⁴ of its power above 10 Hz,
 /// asserted in test_tremor_model) and join with zero velocity and acceleration.
 
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 
 #include <Eigen/Core>
@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace touchstone::realtime::collision {
+namespace touchstone::realtime::hand_motion {
 
 /// Minimum-jerk profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ for τ clamped to [0, 1] (Flash & Hogan 1985):
 /// zero velocity and acceleration at both ends.
@@ -84,4 +84,4 @@ class ApproachTrajectoryGenerator {
   std::vector<double> cumulative_area_;
 };
 
-}  // namespace touchstone::realtime::collision
+}  // namespace touchstone::realtime::hand_motion

@@ -5,9 +5,9 @@
 // path (eq. 2), over many randomized approaches.
 #include "brute_force_queries.hpp"
 
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
-#include "touchstone/realtime/collision/tremor_model.hpp"
+#include "touchstone/realtime/hand_motion/tremor_model.hpp"
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 
@@ -27,8 +27,10 @@
 #include <utility>
 #include <vector>
 
-namespace touchstone::realtime::collision {
+namespace touchstone::realtime::hand_motion {
 namespace {
+
+using namespace touchstone::realtime::collision;  // the predictor these paths are fed to
 
 using Eigen::Vector3d;
 
@@ -348,4 +350,4 @@ TEST(TremorStudy, MeanToolPathCutsThePredictedPointErrorBelowOneMillimetre) {
 }
 
 }  // namespace
-}  // namespace touchstone::realtime::collision
+}  // namespace touchstone::realtime::hand_motion

@@ -1,4 +1,4 @@
-#include "touchstone/realtime/collision/approach_trajectory.hpp"
+#include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
 
 #include <Eigen/Geometry>
 
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace touchstone::realtime::collision {
+namespace touchstone::realtime::hand_motion {
 
 namespace {
 
@@ -162,4 +162,4 @@ ApproachTrajectory ApproachTrajectoryGenerator::generate(std::uint64_t seed) con
                            std::to_string(seed) + ")");
 }
 
-}  // namespace touchstone::realtime::collision
+}  // namespace touchstone::realtime::hand_motion

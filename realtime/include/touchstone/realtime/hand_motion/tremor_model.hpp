@@ -22,7 +22,7 @@
 #include <complex>
 #include <cstdint>
 
-namespace touchstone::realtime::collision {
+namespace touchstone::realtime::hand_motion {
 
 /// A small deterministic random stream (xoshiro256** seeded through splitmix64), independent of
 /// the standard library's distributions so that a seed means the same numbers everywhere.
@@ -137,4 +137,4 @@ class TremorGenerator {
   long long samples_ = 0;
 };
 
-}  // namespace touchstone::realtime::collision
+}  // namespace touchstone::realtime::hand_motion
