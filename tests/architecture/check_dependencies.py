@@ -16,15 +16,14 @@ import pathlib
 import re
 import sys
 
-# Folder -> the project headers (touchstone/<x>/) and libraries it must not use.
+# Folder -> the libraries it must not use: their headers (include/touchstone/<x>/) and their CMake
+# targets (touchstone::<x>) have the same name.
 FORBIDDEN = {
     "geometry": ["realtime", "meshes", "fem", "studies"],
     "meshes": ["realtime", "fem", "studies"],
     "realtime": ["meshes", "fem", "studies"],
     "reference_fem": ["realtime", "studies"],
 }
-# Header folder (include/touchstone/<x>) and CMake target (touchstone::<x>) of each library.
-LIBRARY_NAME = {"geometry": "geometry", "meshes": "meshes", "realtime": "realtime", "fem": "fem", "studies": "studies"}
 DEAL_II_ALLOWED = {"reference_fem"}
 
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
@@ -51,7 +50,7 @@ def main(root: pathlib.Path) -> int:
                 if header.startswith("deal.II/") and folder not in DEAL_II_ALLOWED:
                     problems.append(f"{where}: includes deal.II ({header}); deal.II stays inside reference_fem/")
                 for other in FORBIDDEN.get(folder, []):
-                    if header.startswith(f"touchstone/{LIBRARY_NAME[other]}/"):
+                    if header.startswith(f"touchstone/{other}/"):
                         problems.append(f"{where}: {folder}/ must not depend on {other} (includes {header})")
         cmake = base / "CMakeLists.txt"
         if cmake.is_file():
@@ -59,7 +58,7 @@ def main(root: pathlib.Path) -> int:
                 if line.lstrip().startswith("#"):
                     continue
                 for target in LINK.findall(line):
-                    if target in [LIBRARY_NAME[o] for o in FORBIDDEN.get(folder, [])]:
+                    if target in FORBIDDEN.get(folder, []):
                         problems.append(f"{cmake.relative_to(root)}:{number}: {folder}/ must not link touchstone::{target}")
     problems += mutual_includes(root / "realtime", "touchstone/realtime/")
     for problem in problems:
@@ -75,11 +74,12 @@ def mutual_includes(library: pathlib.Path, prefix: str) -> list:
     for path in sorted(library.rglob("*")):
         if path.suffix not in {".hpp", ".cpp", ".h"}:
             continue
-        parts = path.relative_to(library).parts
         # include/touchstone/realtime/<folder>/… or src/<folder>/…
-        folder = parts[3] if parts[0] == "include" and len(parts) > 4 else parts[1] if parts[0] == "src" and len(parts) > 2 else None
-        if folder is None:
+        parts = path.relative_to(library).parts
+        depth = 3 if parts[0] == "include" else 1
+        if len(parts) <= depth + 1:
             continue
+        folder = parts[depth]
         for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
             match = INCLUDE.match(line)
             if match and match.group(1).startswith(prefix):

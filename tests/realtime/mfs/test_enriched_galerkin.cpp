@@ -6,7 +6,7 @@
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
-#include "touchstone/realtime/mfs/quadrature_rules.hpp"
+#include "support/box_quadrature.hpp"
 
 #include <gtest/gtest.h>
 
@@ -128,40 +128,25 @@ TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   const Material material;
   const PunchFrame frame = PunchFrame::along(Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, -1));
   const Eigen::Vector3d low(0.5 * a, -a, -3 * a), high(2.5 * a, a, -a);
-  const Eigen::Vector3d size = high - low;
-  std::vector<double> x, w;
-  gauss_legendre(20, x, w);
   const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};
   MlsEvaluation eval;
   const std::size_t n = cloud.size();
   std::vector<Eigen::Vector3d> volume(n, Eigen::Vector3d::Zero()), boundary(n, Eigen::Vector3d::Zero());
-  for (std::size_t i = 0; i < x.size(); ++i)
-    for (std::size_t j = 0; j < x.size(); ++j)
-      for (std::size_t k = 0; k < x.size(); ++k) {
-        const Eigen::Vector3d p = low + size.cwiseProduct(Eigen::Vector3d(x[i], x[j], x[k]));
-        evaluate_mls(p, cloud.positions, cloud.radii, {}, mls, Derivatives::gradients, eval);
-        ASSERT_EQ(eval.status, MlsStatus::ok);
-        const Eigen::Matrix3d stress = punch_field(PunchMode::normal, frame, a, material, p).stress_Pa_per_m;
-        for (std::size_t b = 0; b < eval.neighbours.size(); ++b)
-          volume[static_cast<std::size_t>(eval.neighbours[b])] += w[i] * w[j] * w[k] * size.prod() * stress * eval.gradient[b];
-      }
-  for (int axis = 0; axis < 3; ++axis)
-    for (const int side : {-1, 1}) {
-      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-      const Eigen::Vector3d normal = side * Eigen::Vector3d::Unit(axis);
-      for (std::size_t i = 0; i < x.size(); ++i)
-        for (std::size_t j = 0; j < x.size(); ++j) {
-          Eigen::Vector3d p = low;
-          p[axis] = side > 0 ? high[axis] : low[axis];
-          p[u] += size[u] * x[i];
-          p[v] += size[v] * x[j];
-          evaluate_mls(p, cloud.positions, cloud.radii, {}, mls, Derivatives::values, eval);
-          ASSERT_EQ(eval.status, MlsStatus::ok);
-          const Eigen::Vector3d traction = punch_field(PunchMode::normal, frame, a, material, p).stress_Pa_per_m * normal;
-          for (std::size_t b = 0; b < eval.neighbours.size(); ++b)
-            boundary[static_cast<std::size_t>(eval.neighbours[b])] += w[i] * w[j] * size[u] * size[v] * eval.value[b] * traction;
-        }
-    }
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_volume_rule(low, high, 20)) {
+    evaluate_mls(q.position_m, cloud.positions, cloud.radii, {}, mls, Derivatives::gradients, eval);
+    ASSERT_EQ(eval.status, MlsStatus::ok);
+    const Eigen::Matrix3d stress = punch_field(PunchMode::normal, frame, a, material, q.position_m).stress_Pa_per_m;
+    for (std::size_t b = 0; b < eval.neighbours.size(); ++b)
+      volume[static_cast<std::size_t>(eval.neighbours[b])] += q.weight * stress * eval.gradient[b];
+  }
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_surface_rule(low, high, 20)) {
+    evaluate_mls(q.position_m, cloud.positions, cloud.radii, {}, mls, Derivatives::values, eval);
+    ASSERT_EQ(eval.status, MlsStatus::ok);
+    const Eigen::Vector3d traction =
+        punch_field(PunchMode::normal, frame, a, material, q.position_m).stress_Pa_per_m * q.normal;
+    for (std::size_t b = 0; b < eval.neighbours.size(); ++b)
+      boundary[static_cast<std::size_t>(eval.neighbours[b])] += q.weight * eval.value[b] * traction;
+  }
   double largest = 0, worst = 0;
   for (std::size_t I = 0; I < n; ++I) largest = std::max(largest, volume[I].norm());
   for (std::size_t I = 0; I < n; ++I) worst = std::max(worst, (volume[I] - boundary[I]).norm());

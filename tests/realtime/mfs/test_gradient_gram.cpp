@@ -71,9 +71,8 @@ TEST(GradientGram, EqualsThePairwiseAssemblyForAnyBatching) {
 }
 
 TEST(GradientGram, AnAffineFieldHasTheExactStrainEnergy) {
-  // Shape functions of a 1D-in-each-axis tensor grid reproducing linear fields are not needed:
-  // with ∇N_a chosen so that Σ_a x_a ⊗ ∇N_a = I at each point (a consistent gradient), u = Fx
-  // gives ε = sym F everywhere, and uᵀKu = Σ_q w_q ε:C:ε.
+  // The linear tetrahedron's shape functions reproduce affine fields: for u = Fx the nodal
+  // values give ε = sym F at every point, so uᵀKu = V (λ (tr ε)² + 2μ ε:ε) exactly.
   const int nodes = 4;
   const Eigen::Vector3d x[nodes] = {{0, 0, 0}, {1e-3, 0, 0}, {0, 1e-3, 0}, {0, 0, 1e-3}};
   // Linear tetrahedron shape functions: ∇N_1 = e_x/h, …, ∇N_0 = −Σ.

@@ -1,12 +1,14 @@
 // The punch fields against the closed-form oracle tests/oracles/sneddon_field.py (values below
 // printed by it for a = G = 1, ν = 0.45, unit depth / unit tangential displacement), their
 // boundary conditions, equilibrium and resultants, and the frame transformation.
+#include "support/box_quadrature.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
 
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -148,41 +150,27 @@ TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
   const Material material = unit_material();
   const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
   const Eigen::Vector3d low(0.4, -0.6, 0.8), high(1.7, 0.5, 2.0);
-  std::vector<double> x, w;
-  gauss_legendre(16, x, w);
   const auto strain_of = [&](const Eigen::Matrix3d& stress) {
     return Eigen::Matrix3d((stress - lambda / (3 * lambda + 2 * mu) * stress.trace() * Eigen::Matrix3d::Identity()) / (2 * mu));
   };
   const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
   Eigen::Matrix3d volume = Eigen::Matrix3d::Zero(), boundary = Eigen::Matrix3d::Zero();
-  const Eigen::Vector3d size = high - low;
-  for (std::size_t i = 0; i < x.size(); ++i)
-    for (std::size_t j = 0; j < x.size(); ++j)
-      for (std::size_t k = 0; k < x.size(); ++k) {
-        const Eigen::Vector3d p = low + size.cwiseProduct(Eigen::Vector3d(x[i], x[j], x[k]));
-        const double weight = w[i] * w[j] * w[k] * size.prod();
-        PunchFieldSample f[3];
-        for (int m = 0; m < 3; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
-        for (int m = 0; m < 3; ++m)
-          for (int n = 0; n < 3; ++n) volume(m, n) += weight * (f[m].stress_Pa_per_m.cwiseProduct(strain_of(f[n].stress_Pa_per_m))).sum();
-      }
-  for (int axis = 0; axis < 3; ++axis)
-    for (const int side : {-1, 1}) {
-      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-      const Eigen::Vector3d normal = side * Eigen::Vector3d::Unit(axis);
-      for (std::size_t i = 0; i < x.size(); ++i)
-        for (std::size_t j = 0; j < x.size(); ++j) {
-          Eigen::Vector3d p = low;
-          p[axis] = side > 0 ? high[axis] : low[axis];
-          p[u] += size[u] * x[i];
-          p[v] += size[v] * x[j];
-          const double weight = w[i] * w[j] * size[u] * size[v];
-          PunchFieldSample f[3];
-          for (int m = 0; m < 3; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
-          for (int m = 0; m < 3; ++m)
-            for (int n = 0; n < 3; ++n) boundary(m, n) += weight * f[n].displacement.dot(f[m].stress_Pa_per_m * normal);
-        }
-    }
+  const auto fields_at = [&](const Eigen::Vector3d& p) {
+    std::array<PunchFieldSample, 3> f;
+    for (int m = 0; m < 3; ++m) f[static_cast<std::size_t>(m)] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
+    return f;
+  };
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_volume_rule(low, high, 16)) {
+    const std::array<PunchFieldSample, 3> f = fields_at(q.position_m);
+    for (std::size_t m = 0; m < 3; ++m)
+      for (std::size_t n = 0; n < 3; ++n)
+        volume(m, n) += q.weight * (f[m].stress_Pa_per_m.cwiseProduct(strain_of(f[n].stress_Pa_per_m))).sum();
+  }
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_surface_rule(low, high, 16)) {
+    const std::array<PunchFieldSample, 3> f = fields_at(q.position_m);
+    for (std::size_t m = 0; m < 3; ++m)
+      for (std::size_t n = 0; n < 3; ++n) boundary(m, n) += q.weight * f[n].displacement.dot(f[m].stress_Pa_per_m * q.normal);
+  }
   EXPECT_NEAR(boundary(0, 0) / volume(0, 0), 1.0, 1e-6);  // ψ_normal, closed-form stresses
   for (int m = 0; m < 3; ++m)
     for (int n = 0; n < 3; ++n)  // the tangential modes' stresses are finite differences
