@@ -18,7 +18,7 @@ namespace {
 
 using namespace touchstone;
 
-/// The B2 geometry of studies/b2_reference.toml at refinement `level`.
+/// The B2 geometry of studies/configs/b2_reference.toml at refinement `level`.
 const std::string& b2_mesh(int level) {
   static std::map<int, std::string> paths;
   auto it = paths.find(level);

@@ -10,19 +10,16 @@ execute_process(COMMAND git -C ${SOURCE_DIR} status --porcelain --untracked-file
 if(NOT dirty STREQUAL "")
   set(git_hash "${git_hash}-dirty")
 endif()
-# The FEM cache key: a hash of every source that decides a reference solution (the FEM, the
-# meshes and the geometry core they read surfaces into, the reference study, probes and config parsing), so that a commit that touches none of
-# them keeps the cached FEM solves valid — the git hash would throw them away on every commit.
+# The FEM cache key: a hash of every source that decides a reference solution: the folders of
+# the FEM, the meshes, the geometry core they read surfaces into, and studies' fem_reference
+# folders (reading a study file, the reference study, the probes). A commit that touches none of
+# them keeps the cached FEM solves valid; the git hash would throw them away on every commit.
 file(GLOB_RECURSE fem_sources LIST_DIRECTORIES false
   ${SOURCE_DIR}/reference_fem/*.cpp ${SOURCE_DIR}/reference_fem/*.hpp ${SOURCE_DIR}/reference_fem/CMakeLists.txt
   ${SOURCE_DIR}/meshes/*.cpp ${SOURCE_DIR}/meshes/*.hpp ${SOURCE_DIR}/meshes/CMakeLists.txt
-  ${SOURCE_DIR}/geometry/*.cpp ${SOURCE_DIR}/geometry/*.hpp ${SOURCE_DIR}/geometry/CMakeLists.txt)
-list(APPEND fem_sources
-  ${SOURCE_DIR}/studies/src/reference_study.cpp ${SOURCE_DIR}/studies/src/reference_study_config.cpp
-  ${SOURCE_DIR}/studies/src/probes.cpp ${SOURCE_DIR}/studies/src/config_reader.cpp
-  ${SOURCE_DIR}/studies/include/touchstone/studies/reference_study.hpp
-  ${SOURCE_DIR}/studies/include/touchstone/studies/probes.hpp
-  ${SOURCE_DIR}/studies/include/touchstone/studies/config_reader.hpp)
+  ${SOURCE_DIR}/geometry/*.cpp ${SOURCE_DIR}/geometry/*.hpp ${SOURCE_DIR}/geometry/CMakeLists.txt
+  ${SOURCE_DIR}/studies/src/fem_reference/*
+  ${SOURCE_DIR}/studies/include/touchstone/studies/fem_reference/*)
 list(SORT fem_sources)
 set(fem_digest "")
 foreach(source IN LISTS fem_sources)

@@ -16,8 +16,8 @@ packages=(
   libvtk9-dev libopenigtlink-dev
   # a virtual display for the interactive window test (and headless screenshots)
   xvfb xauth
-  # configuration, command line, logging, JSON
-  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  # configuration, command line, JSON
+  libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   # tests, benchmarks, plots
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-matplotlib python3-vtk9
 )

@@ -8,7 +8,7 @@
 # reused from output/hemisphere. The full B2 FEM reference (both contacts, two mesh families)
 # remains available on its own:
 #   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
-#     mpirun -np 2 ./build/release/studies/touchstone fem studies/b2_reference.toml --out output/b2_reference
+#     mpirun -np 2 ./build/release/studies/touchstone fem studies/configs/b2_reference.toml --out output/b2_reference
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -17,7 +17,7 @@ cmake --build --preset release -j "$(nproc)" --target touchstone
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # Every process takes part in the FEM solves (the finest meshes have ~1.2M unknowns); rank 0
 # alone runs the MFS cases (one core: their run times are single-core) and writes the report.
-mpirun -np "$(nproc)" --oversubscribe ./build/release/studies/touchstone study studies/hemisphere.toml \
+mpirun -np "$(nproc)" --oversubscribe ./build/release/studies/touchstone study studies/configs/hemisphere.toml \
   --out output/hemisphere "$@"
 echo
 echo "report: $(pwd)/output/hemisphere/report.md"

@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
 # The default test run on a fresh Debian 12 machine: install, build, run every test not
-# labelled "large" or "open_acceptance" (ctest -L large / -L open_acceptance run those), then
-# the threaded tests under ThreadSanitizer.
+# labelled "large" (ctest -L large runs those), then the threaded tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh

@@ -3,6 +3,7 @@
 #include "touchstone/studies/collision_study.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <toml++/toml.h>
@@ -46,23 +47,11 @@ std::string organ_id(const meshes::OrganParameters& organ) {
   return meshes::to_string(organ.shape) + "-" + std::to_string(organ.target_triangles);
 }
 
-std::string format_number(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
 std::string printf_string(const char* format, double value) {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, format, value);
   return buffer;
 }
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-json number(double value) { return std::isfinite(value) ? json(value) : json(nullptr); }
 
 // ---------------------------------------------------------------------------------------------
 // Distributions.
@@ -96,12 +85,12 @@ json distribution(std::vector<double> values) {
       ++trimmed;
     }
   return {{"count", values.size()},
-          {"mean", finite ? number(sum / static_cast<double>(finite)) : json(nullptr)},
-          {"trimmed_mean", trimmed ? number(trimmed_sum / static_cast<double>(trimmed)) : json(nullptr)},
-          {"median", number(percentile_sorted(values, 0.5))},
-          {"p90", number(percentile_sorted(values, 0.9))},
-          {"p99", number(percentile_sorted(values, 0.99))},
-          {"max", values.empty() ? json(nullptr) : number(values.back())}};
+          {"mean", finite ? json_number(sum / static_cast<double>(finite)) : json(nullptr)},
+          {"trimmed_mean", trimmed ? json_number(trimmed_sum / static_cast<double>(trimmed)) : json(nullptr)},
+          {"median", json_number(percentile_sorted(values, 0.5))},
+          {"p90", json_number(percentile_sorted(values, 0.9))},
+          {"p99", json_number(percentile_sorted(values, 0.99))},
+          {"max", values.empty() ? json(nullptr) : json_number(values.back())}};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -144,10 +133,10 @@ struct PhaseCost {
     const double n = cycles > 0 ? static_cast<double>(cycles) : std::numeric_limits<double>::quiet_NaN();
     json time = distribution(cycle_ns);
     return {{"cycles", cycles},
-            {"distances_per_cycle", number(static_cast<double>(distances) / n)},
-            {"surface_queries_per_cycle", number(static_cast<double>(surface_queries) / n)},
-            {"box_tests_per_cycle", number(static_cast<double>(box_tests) / n)},
-            {"triangle_tests_per_cycle", number(static_cast<double>(triangle_tests) / n)},
+            {"distances_per_cycle", json_number(static_cast<double>(distances) / n)},
+            {"surface_queries_per_cycle", json_number(static_cast<double>(surface_queries) / n)},
+            {"box_tests_per_cycle", json_number(static_cast<double>(box_tests) / n)},
+            {"triangle_tests_per_cycle", json_number(static_cast<double>(triangle_tests) / n)},
             {"max_box_tests_in_a_cycle", max_box_tests},
             {"max_triangle_tests_in_a_cycle", max_triangle_tests},
             {"time_ns",
@@ -196,8 +185,8 @@ Organ make_organ(const meshes::OrganParameters& parameters) {
                 {"mesh_s", mesh.seconds}};
   organ.surface = std::make_unique<geometry::TriangleSurface>(std::move(mesh.vertices), std::move(mesh.triangles),
                                                                         organ_id(parameters));
-  organ.info["area_m2"] = number(organ.surface->area_m2());
-  organ.info["volume_m3"] = number(organ.surface->volume_m3());
+  organ.info["area_m2"] = json_number(organ.surface->area_m2());
+  organ.info["volume_m3"] = json_number(organ.surface->volume_m3());
   return organ;
 }
 
@@ -378,13 +367,6 @@ std::string write_csv(const std::vector<std::string>& header, const std::vector<
     out << "\n";
   }
   return out.str();
-}
-
-std::string csv_value(const json& value) {
-  if (value.is_null()) return "";
-  if (value.is_number_float()) return printf_string("%.9g", value.get<double>());
-  if (value.is_string()) return value.get<std::string>();
-  return value.dump();
 }
 
 /// Runs the plot script on the output folder; "" on success, else why not.
@@ -997,7 +979,7 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
                  {"triangle_tests", mean_max(reference.first_triangle)},
                  {"overlap_tests", mean_max(overlap)},
                  {"nodes_entered", binary_no_grid ? mean_max(entered) : json{{"mean", nullptr}, {"max", nullptr}}},
-                 {"query_time_ns", number(query_ns)},
+                 {"query_time_ns", json_number(query_ns)},
                  {"prediction_free_cycle", {{"distances", 1}, {"comparisons", 1}, {"box_tests", 0}}}};
         document["table1"].push_back(row);
 

@@ -8,8 +8,11 @@
 #include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
-#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/fem_reference/probes.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
+
+#include "mfs_settings_fields.hpp"
 
 #include <toml++/toml.h>
 
@@ -31,79 +34,7 @@ using nlohmann::json;
 namespace {
 
 // ---------------------------------------------------------------------------------------------
-// Names of the engine's enums, as spelled in configs, results.json and the resolved config.
-
-template <class E>
-struct Named {
-  const char* name;
-  E value;
-};
-
-const std::vector<Named<mfs::Layout>> layouts{{"radial_shells", mfs::Layout::radial_shells},
-                                              {"quasi_random", mfs::Layout::quasi_random},
-                                              {"lattice", mfs::Layout::lattice}};
-const std::vector<Named<mfs::OuterCondition>> outer_conditions{{"clamped", mfs::OuterCondition::clamped},
-                                                               {"traction_free", mfs::OuterCondition::traction_free}};
-const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
-    {"body_aware", mfs::ExteriorCondition::body_aware},
-    {"half_space", mfs::ExteriorCondition::half_space},
-    {"clamped", mfs::ExteriorCondition::clamped}};
-const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
-                                                        {"galerkin", mfs::Formulation::galerkin},
-                                                        {"collocation", mfs::Formulation::collocation}};
-const std::vector<Named<mfs::PatchCondition>> patch_conditions{{"frictionless", mfs::PatchCondition::frictionless},
-                                                               {"bonded", mfs::PatchCondition::bonded}};
-const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
-const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::quartic_spline},
-                                              {"cubic_spline", mfs::Weight::cubic_spline},
-                                              {"truncated_gaussian", mfs::Weight::truncated_gaussian}};
-const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverKind::dense_lu},
-                                                       {"sparse_lu", mfs::SolverKind::sparse_lu},
-                                                       {"gmres_ilut", mfs::SolverKind::gmres_ilut}};
-// "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
-const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
-                                                         {"reaction", mfs::ForceMethod::reaction},
-                                                         {"energy", mfs::ForceMethod::energy},
-                                                         {"paper_partition", mfs::ForceMethod::paper_partition}};
-
-template <class E>
-std::vector<std::string> names(const std::vector<Named<E>>& table) {
-  std::vector<std::string> result;
-  for (const auto& entry : table) result.push_back(entry.name);
-  return result;
-}
-
-template <class E>
-std::string name_of(const std::vector<Named<E>>& table, E value) {
-  for (const auto& entry : table)
-    if (entry.value == value) return entry.name;
-  return "unknown";
-}
-
-template <class E>
-E value_of(const std::vector<Named<E>>& table, const std::string& name) {
-  for (const auto& entry : table)
-    if (name == entry.name) return entry.value;
-  throw std::invalid_argument("unknown name '" + name + "'");  // unreachable after ConfigTable::choice
-}
-
-template <class E>
-E read_choice(ConfigTable& table, const std::string& key, const std::vector<Named<E>>& choices, E default_value) {
-  return value_of(choices, table.choice(key, names(choices), name_of(choices, default_value)));
-}
-
-// ---------------------------------------------------------------------------------------------
 // JSON that never holds NaN: a non-finite number becomes null (and the case is not "ok").
-
-json number(double value) { return std::isfinite(value) ? json(value) : json(nullptr); }
-
-json vector_json(const Eigen::Vector3d& v) { return json::array({number(v[0]), number(v[1]), number(v[2])}); }
-
-json matrix_json(const Eigen::Matrix3d& m) {
-  json rows = json::array();
-  for (int i = 0; i < 3; ++i) rows.push_back(vector_json(m.row(i).transpose()));
-  return rows;
-}
 
 /// Replaces every non-finite number in `j` by null; true if there was one.
 bool scrub_non_finite(json& j) {
@@ -117,16 +48,6 @@ bool scrub_non_finite(json& j) {
   return found;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-std::string format_number(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
 // ---------------------------------------------------------------------------------------------
 // The organ surface.
 
@@ -136,22 +57,12 @@ struct Organ {
   json info;
 };
 
-/// B3 is the hemisphere seen through the local ball: the MFS cuts the ball itself, so its
-/// organ is the whole hemisphere (B2), not the truncated FEM domain. B1 (the cylinder), B2 and
-/// B5 are their own organ.
-meshes::MeshParameters surface_geometry(const MfsStudy& study) {
-  meshes::MeshParameters g = study.geometry;
-  if (g.benchmark == meshes::Benchmark::B3) g.benchmark = meshes::Benchmark::B2;
-  g.refinement = 0;
-  return g;
-}
-
 Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   const auto start = std::chrono::steady_clock::now();
   json info;
   std::string path = study.surface_path;
   if (path.empty()) {
-    const meshes::MeshParameters g = surface_geometry(study);
+    const meshes::MeshParameters g = organ_surface_geometry(study);
     path = (fs::path(output_directory) / "organ_surface.msh").string();
     fs::create_directories(output_directory);
     const meshes::MeshSummary summary = meshes::generate_mesh(g, path);
@@ -169,8 +80,8 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   info["sha256"] = sha256_hex(read_file(path));
   info["vertices"] = surface.vertices().size();
   info["triangles"] = surface.triangles().size();
-  info["area_m2"] = number(surface.area_m2());
-  info["volume_m3"] = number(surface.volume_m3());
+  info["area_m2"] = json_number(surface.area_m2());
+  info["volume_m3"] = json_number(surface.volume_m3());
   mfs::ClampedSurface clamped;
   if (!study.clamped_group.empty()) {
     meshes::SurfaceReadOptions group;
@@ -202,9 +113,7 @@ mfs::ToolContact tool_contact(const MfsStudy& study, mfs::PatchCondition conditi
 
 json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const mfs::ToolContact& contact,
                  int node_count_requested) {
-  const mfs::SprinklingSettings& sp = s.sprinkling;
-  const mfs::MlsSettings& mls = s.collocation.mls;
-  return {{"node_count_requested", node_count_requested},
+  json params{{"node_count_requested", node_count_requested},
           {"node_count", nullptr},
           {"extra_points", nullptr},
           {"benchmark", meshes::to_string(study.geometry.benchmark)},
@@ -216,50 +125,10 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"poisson_ratio", study.material.poisson_ratio},
           {"depth_m", study.depth_m},
           {"direction", vector_json(contact.direction)},
-          {"contact", name_of(patch_conditions, contact.condition)},
-          {"paper_mode", s.paper_mode},
-          {"formulation", mfs::to_string(s.formulation)},
-          {"penalty_factor", s.galerkin.penalty_factor},
-          {"constraint", mfs::to_string(s.galerkin.constraint)},
-          {"exterior", name_of(exterior_conditions, s.enriched.exterior)},
-          {"enriched_supports", {s.enriched.support_neighbours, s.enriched.min_point_neighbours}},
-          {"enriched_volume_quadrature",
-           {s.enriched.volume_radial_points, s.enriched.volume_polar_points, s.enriched.volume_azimuth_points}},
-          {"enriched_boundary_quadrature",
-           {s.enriched.patch_radial_points, s.enriched.patch_angular_points, s.enriched.free_radial_points,
-            s.enriched.free_azimuth_points, s.enriched.cut_polar_points, s.enriched.cut_azimuth_points}},
-          {"cut_multiplier_degree", s.enriched.cut_multiplier_degree},
-          {"local_radius_m", sp.local_radius_m},
-          {"layout", name_of(layouts, sp.layout)},
-          {"ring_nodes", sp.ring_nodes},
-          {"radius_factor", sp.radius_factor},
-          {"boundary_radius_factor", sp.boundary_radius_factor},
-          {"outer", name_of(outer_conditions, sp.outer)},
-          {"oversampling", sp.oversampling},
-          {"tip_node_only", sp.tip_node_only},
-          {"seed", sp.seed},
-          {"basis", name_of(bases, mls.basis)},
-          {"weight", name_of(weights, mls.weight)},
-          {"min_rcond_threshold", mls.min_rcond},
-          {"max_support_scale", mls.max_support_scale},
-          {"scale_rows", s.collocation.scale_rows},
-          {"neumann_stabilization", s.collocation.neumann_stabilization},
-          {"boundary_row_weight", s.collocation.boundary_row_weight},
-          {"solver", name_of(solver_kinds, s.solver.kind)},
-          {"gmres_tolerance", s.solver.gmres_tolerance},
-          {"gmres_restart", s.solver.gmres_restart},
-          {"gmres_max_iterations", s.solver.gmres_max_iterations},
-          {"max_relative_residual", s.solver.max_relative_residual},
-          {"ilut_drop_tolerance", s.solver.ilut_drop_tolerance},
-          {"ilut_fill_factor", s.solver.ilut_fill_factor},
-          {"haptic_method", name_of(force_methods, s.force.haptic_method)},
-          {"patch_quadrature", {s.force.patch_radial_points, s.force.patch_angular_points}},
-          {"cut_quadrature", {s.force.cut_polar_points, s.force.cut_azimuth_points}},
-          {"volume_quadrature",
-           {s.force.volume_radial_points, s.force.volume_polar_points, s.force.volume_azimuth_points}},
-          {"extraction_shell", {s.force.extraction_inner_tool_radii, s.force.extraction_outer_local_radii}},
-          {"extraction_quadrature",
-           {s.force.extraction_radial_points, s.force.extraction_polar_points, s.force.extraction_azimuth_points}}};
+          {"contact", patch_condition_name(contact.condition)}};
+  // Every engine setting, from the one table that also reads and resolves them.
+  add_local_model_params(params, s);
+  return params;
 }
 
 /// What the enrichment offers the accuracy indicator: the exterior actually used, the
@@ -271,19 +140,19 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
   const Eigen::Index nodal = 3 * static_cast<Eigen::Index>(model.cloud.size());
   json amplitudes = json::array();
   const Eigen::VectorXd per_depth = e.unit_response.bottomRows(e.unit_response.rows() - nodal) * contact.direction.normalized();
-  for (Eigen::Index i = 0; i < per_depth.size(); ++i) amplitudes.push_back(number(per_depth[i]));
+  for (Eigen::Index i = 0; i < per_depth.size(); ++i) amplitudes.push_back(json_number(per_depth[i]));
   const Eigen::VectorXd mls = solution.parameters.head(nodal);
   const double mls_energy = 0.5 * mls.dot(e.stiffness.topLeftCorner(nodal, nodal) * mls);
   const double total = 0.5 * solution.parameters.dot(e.stiffness * solution.parameters);
   return {{"exterior_used", model.exterior_used},
           {"exterior_note", model.exterior_note},
           {"amplitudes_per_depth", amplitudes},
-          {"mls_energy_share", number(total > 0 ? mls_energy / total : 0.0)},
+          {"mls_energy_share", json_number(total > 0 ? mls_energy / total : 0.0)},
           {"multipliers", e.multipliers},
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},
           {"boundary_points", e.boundary_points},
-          {"kkt_relative_residual", number(e.kkt_relative_residual)}};
+          {"kkt_relative_residual", json_number(e.kkt_relative_residual)}};
 }
 
 json null_qoi() {
@@ -364,15 +233,15 @@ class CaseRunner {
     // Collocation: over its collocation points; Galerkin: over its volume quadrature points.
     const bool galerkin = settings.formulation == mfs::Formulation::galerkin;
     const bool enriched = settings.formulation == mfs::Formulation::enriched;
-    c["qoi"]["min_rcond"] = number(enriched ? model.enriched.min_rcond
+    c["qoi"]["min_rcond"] = json_number(enriched ? model.enriched.min_rcond
                                    : galerkin ? model.galerkin.min_rcond
                                               : model.system.status.min_rcond);
     c["diagnostics"] = {{"max_support_scale_used",
-                         number(enriched ? model.enriched.max_support_scale
+                         json_number(enriched ? model.enriched.max_support_scale
                                 : galerkin ? model.galerkin.max_support_scale
                                            : model.system.status.max_support_scale)},
                         {"max_neighbours", model.system.status.max_neighbours},
-                        {"mean_neighbours", number(model.system.status.mean_neighbours)},
+                        {"mean_neighbours", json_number(model.system.status.mean_neighbours)},
                         {"clamped_quadrature_points", model.clamped_points}};
     json& time = c["time_s"];
     time["sprinkle"] = model.times.sprinkle_s;
@@ -410,10 +279,10 @@ class CaseRunner {
     const double a = contact.radius_m, e = study_.material.youngs_modulus_Pa;
     json& qoi = c["qoi"];
     qoi["force_N"] = vector_json(f.haptic_N);
-    qoi["axial_force_N"] = number(axial);
-    qoi["stiffness_N_per_m"] = number(std::abs(axial) / study_.depth_m);
-    qoi["energy_J"] = settings.force.energy || enriched ? number(f.energy_J) : json(nullptr);
-    qoi["k_star"] = number(axial / (e * a * study_.depth_m));
+    qoi["axial_force_N"] = json_number(axial);
+    qoi["stiffness_N_per_m"] = json_number(std::abs(axial) / study_.depth_m);
+    qoi["energy_J"] = settings.force.energy || enriched ? json_number(f.energy_J) : json(nullptr);
+    qoi["k_star"] = json_number(axial / (e * a * study_.depth_m));
     qoi["forces_by_method_N"] = {
         {"traction_integral", model.traction_available ? vector_json(f.traction_integral_N) : json(nullptr)},
         {"traction_surface", vector_json(f.traction_surface_N)},
@@ -421,12 +290,12 @@ class CaseRunner {
                          ? vector_json(f.reaction_N)
                          : json(nullptr)},
         {"paper_partition", enriched ? json(nullptr) : vector_json(f.paper_partition_N)},
-        {"energy_along_tool", settings.force.energy || enriched ? number(f.energy_force_N) : json(nullptr)}};
+        {"energy_along_tool", settings.force.energy || enriched ? json_number(f.energy_force_N) : json(nullptr)}};
     qoi["tool_stiffness_matrix_N_per_m"] = matrix_json(model.tool_stiffness_N_per_m);
     qoi["probes"] = probes(model, solution.parameters, contact);
     if (settings.paper_mode) {
       qoi["paper_tip_residual_Pa"] = vector_json(f.paper_tip_residual_Pa);
-      qoi["paper_tip_spacing_m"] = number(cloud.spacing[static_cast<std::size_t>(model.tip_node)]);
+      qoi["paper_tip_spacing_m"] = json_number(cloud.spacing[static_cast<std::size_t>(model.tip_node)]);
     }
     if (!f.haptic_N.allFinite() || !f.traction_integral_N.allFinite()) c["status"] = "non_finite_force";
 
@@ -477,7 +346,7 @@ class CaseRunner {
                                       {{"difference_magnitude_m", magnitude}, {"in_local_domain", mask}});
       c["comparison_vtu"] = name;
       c["comparison_points"] = inside_index.size();
-      c["error"]["field_rel_l2"] = reference_sq > 0 ? number(std::sqrt(difference_sq / reference_sq)) : json(nullptr);
+      c["error"]["field_rel_l2"] = reference_sq > 0 ? json_number(std::sqrt(difference_sq / reference_sq)) : json(nullptr);
     } catch (const std::exception& e) {
       // The comparison picture is extra: its failure is recorded, the case's numbers stand.
       c["comparison_error"] = e.what();
@@ -580,316 +449,11 @@ void print_table(const json& cases, const Eigen::Vector3d& d) {
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------
-
-std::string mfs_case_id(mfs::PatchCondition contact, int node_count) {
-  return "MFS-" + name_of(patch_conditions, contact) + "-N" + std::to_string(node_count);
-}
-
-void MfsStudy::validate() const {
-  if (name.empty()) throw std::invalid_argument("study name is empty");
-  const auto positive = [](const std::string& field, double value) {
-    if (!std::isfinite(value) || value <= 0)
-      throw std::invalid_argument(field + " = " + format_number(value) + " must be finite and > 0");
-  };
-  positive("geometry.body_radius_m", geometry.body_radius_m);
-  positive("geometry.tool_radius_m", geometry.tool_radius_m);
-  if (surface_path.empty()) surface_geometry(*this).validate();
-  material.validate();
-  positive("tool.depth_m", depth_m);
-  if (!direction.allFinite() || direction.norm() < 1e-12)
-    throw std::invalid_argument("tool.direction must be finite and non-zero");
-  if (contact_point_m && !contact_point_m->allFinite()) throw std::invalid_argument("tool.point must be finite");
-  if (contacts.empty()) throw std::invalid_argument("tool.contact is an empty list");
-  if (node_counts.empty()) throw std::invalid_argument("sprinkling.node_count is an empty list");
-  const double L = model.sprinkling.local_radius_m;
-  if (!(geometry.tool_radius_m < 0.5 * L))
-    throw std::invalid_argument("geometry.tool_radius_m = " + format_number(geometry.tool_radius_m) +
-                                " must be < sprinkling.local_radius_m / 2 = " + format_number(0.5 * L));
-  for (const int n : node_counts) {
-    mfs::LocalModelSettings s = model;
-    s.sprinkling.node_count = n;
-    s.validate();
-  }
-}
-
-void read_local_model_sections(ConfigTable& config, mfs::LocalModelSettings& s) {
-  // Strong form at points (the paper) or weak form (De & Bathe's MFS), each with the haptic
-  // method that suits it unless [force] haptic_method says otherwise.
-  s.formulation = read_choice(config, "formulation", formulations, s.formulation);
-  s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
-  if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
-  ConfigTable galerkin = config.table("galerkin");
-  s.galerkin.penalty_factor = galerkin.number("penalty_factor", s.galerkin.penalty_factor);
-  s.galerkin.constraint = galerkin.choice("constraint", {"penalty", "nitsche"}, mfs::to_string(s.galerkin.constraint)) == "nitsche"
-                              ? mfs::Constraint::nitsche
-                              : mfs::Constraint::penalty;
-
-  ConfigTable enriched = config.table("enriched");
-  mfs::EnrichedSettings& e = s.enriched;
-  e.exterior = read_choice(enriched, "exterior", exterior_conditions, e.exterior);
-  e.support_neighbours = read_int(enriched, "support_neighbours", e.support_neighbours);
-  e.min_point_neighbours = read_int(enriched, "min_point_neighbours", e.min_point_neighbours);
-  e.volume_radial_points = read_int(enriched, "volume_radial_points", e.volume_radial_points);
-  e.volume_polar_points = read_int(enriched, "volume_polar_points", e.volume_polar_points);
-  e.volume_azimuth_points = read_int(enriched, "volume_azimuth_points", e.volume_azimuth_points);
-  e.patch_radial_points = read_int(enriched, "patch_radial_points", e.patch_radial_points);
-  e.patch_angular_points = read_int(enriched, "patch_angular_points", e.patch_angular_points);
-  e.free_radial_points = read_int(enriched, "free_radial_points", e.free_radial_points);
-  e.free_azimuth_points = read_int(enriched, "free_azimuth_points", e.free_azimuth_points);
-  e.cut_polar_points = read_int(enriched, "cut_polar_points", e.cut_polar_points);
-  e.cut_azimuth_points = read_int(enriched, "cut_azimuth_points", e.cut_azimuth_points);
-  e.cut_multiplier_degree = read_int(enriched, "cut_multiplier_degree", e.cut_multiplier_degree);
-
-  ConfigTable sprinkling = config.table("sprinkling");
-  mfs::SprinklingSettings& sp = s.sprinkling;
-  sp.layout = read_choice(sprinkling, "layout", layouts, sp.layout);
-  sp.ring_nodes = read_int(sprinkling, "ring_nodes", sp.ring_nodes);
-  sp.radius_factor = sprinkling.number("radius_factor", sp.radius_factor);
-  sp.boundary_radius_factor = sprinkling.number("boundary_radius_factor", sp.boundary_radius_factor);
-  sp.outer = read_choice(sprinkling, "outer", outer_conditions, sp.outer);
-  sp.oversampling = sprinkling.number("oversampling", sp.oversampling);
-  sp.tip_node_only = sprinkling.boolean("tip_node_only", sp.tip_node_only);
-  const std::int64_t seed = sprinkling.integer("seed", static_cast<std::int64_t>(sp.seed));
-  if (seed < 0) throw ConfigError(sprinkling.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
-  sp.seed = static_cast<std::uint64_t>(seed);
-
-  ConfigTable collocation = config.table("collocation");
-  s.collocation.scale_rows = collocation.boolean("scale_rows", s.collocation.scale_rows);
-  s.collocation.neumann_stabilization = collocation.number("neumann_stabilization", s.collocation.neumann_stabilization);
-  s.collocation.boundary_row_weight = collocation.number("boundary_row_weight", s.collocation.boundary_row_weight);
-
-  ConfigTable mls = config.table("mls");
-  mfs::MlsSettings& m = s.collocation.mls;
-  m.basis = read_choice(mls, "basis", bases, m.basis);
-  m.weight = read_choice(mls, "weight", weights, m.weight);
-  m.min_rcond = mls.number("min_rcond", m.min_rcond);
-  m.max_support_scale = mls.number("max_support_scale", m.max_support_scale);
-
-  ConfigTable solver = config.table("solver");
-  s.solver.kind = read_choice(solver, "kind", solver_kinds, s.solver.kind);
-  s.solver.gmres_tolerance = solver.number("gmres_tolerance", s.solver.gmres_tolerance);
-  s.solver.gmres_restart = read_int(solver, "gmres_restart", s.solver.gmres_restart);
-  s.solver.gmres_max_iterations = read_int(solver, "gmres_max_iterations", s.solver.gmres_max_iterations);
-  s.solver.max_relative_residual = solver.number("max_relative_residual", s.solver.max_relative_residual);
-  s.solver.ilut_drop_tolerance = solver.number("ilut_drop_tolerance", s.solver.ilut_drop_tolerance);
-  s.solver.ilut_fill_factor = read_int(solver, "ilut_fill_factor", s.solver.ilut_fill_factor);
-
-  ConfigTable force = config.table("force");
-  mfs::ForceSettings& f = s.force;
-  f.patch_radial_points = read_int(force, "patch_radial_points", f.patch_radial_points);
-  f.patch_angular_points = read_int(force, "patch_angular_points", f.patch_angular_points);
-  f.cut_polar_points = read_int(force, "cut_polar_points", f.cut_polar_points);
-  f.cut_azimuth_points = read_int(force, "cut_azimuth_points", f.cut_azimuth_points);
-  f.volume_radial_points = read_int(force, "volume_radial_points", f.volume_radial_points);
-  f.volume_polar_points = read_int(force, "volume_polar_points", f.volume_polar_points);
-  f.volume_azimuth_points = read_int(force, "volume_azimuth_points", f.volume_azimuth_points);
-  f.extraction_inner_tool_radii = force.number("extraction_inner_tool_radii", f.extraction_inner_tool_radii);
-  f.extraction_outer_local_radii = force.number("extraction_outer_local_radii", f.extraction_outer_local_radii);
-  f.extraction_radial_points = read_int(force, "extraction_radial_points", f.extraction_radial_points);
-  f.extraction_polar_points = read_int(force, "extraction_polar_points", f.extraction_polar_points);
-  f.extraction_azimuth_points = read_int(force, "extraction_azimuth_points", f.extraction_azimuth_points);
-  // Unset, the haptic method follows the formulation (set above).
-  f.haptic_method = read_choice(force, "haptic_method", force_methods, f.haptic_method);
-  f.reaction = force.boolean("reaction", f.reaction);
-  f.energy = force.boolean("energy", f.energy);
-  f.traction = force.boolean("traction", f.traction);
-
-}
-
-MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory) {
-  MfsStudy study;
-  study.name = config.string("study", study.name);
-
-  // paper_mode picks the defaults of every other section, so it is read first.
-  ConfigTable model = config.table("model");
-  const bool top_level = config.has("paper_mode"), in_model = model.has("paper_mode");
-  if (top_level && in_model)
-    throw ConfigError(config.where("paper_mode") + ": given both at the top level and in [model]; keep one");
-  const bool top_level_value = config.boolean("paper_mode", false), model_value = model.boolean("paper_mode", false);
-  const bool paper_mode = top_level_value || model_value;
-  mfs::LocalModelSettings& s = study.model;
-  s = paper_mode ? mfs::paper_settings() : mfs::LocalModelSettings{};
-  s.paper_mode = paper_mode;
-  read_local_model_sections(config, s);
-
-  ConfigTable geometry = config.table("geometry");
-  meshes::MeshParameters& g = study.geometry;
-  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2", "B3", "B5"}, "B2"));
-  g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
-  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
-  g.contact_polar_angle_rad = geometry.quantity("contact_polar_angle", Dimension::angle, 0.0);
-  const bool geometry_has_l = geometry.has("local_radius");
-  const double geometry_l = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
-
-  // The organ: a surface file, or the benchmark's surface meshed with these sizes.
-  ConfigTable organ = config.table("organ");
-  if (geometry.has("surface") && organ.has("surface"))
-    throw ConfigError(geometry.where("surface") + ": given both in [geometry] and [organ]; keep one");
-  std::string surface = geometry.string("surface", "");
-  if (surface.empty()) surface = organ.string("surface", "");
-  const std::string surface_key = geometry.has("surface") ? geometry.where("surface") : organ.where("surface");
-  if (!surface.empty()) {
-    fs::path path(surface);
-    if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
-    std::error_code ignored;
-    if (!fs::is_regular_file(path, ignored)) throw ConfigError(surface_key + ": no such file '" + path.string() + "'");
-    study.surface_path = fs::absolute(path).lexically_normal().string();
-  }
-  study.clamped_group = organ.string("clamped_group", study.surface_path.empty() ? "base" : "");
-  const std::string atlas = organ.string("atlas", "");
-  if (!atlas.empty()) {
-    fs::path path(atlas);
-    if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
-    std::error_code ignored;
-    if (!fs::is_regular_file(path, ignored))
-      throw ConfigError(organ.where("atlas") + ": no such file '" + path.string() + "' (make it with touchstone atlas)");
-    study.atlas_path = fs::absolute(path).lexically_normal().string();
-    mfs::read_organ_atlas(study.atlas_path);  // a broken atlas is a config error, named now
-  }
-  // A few thousand triangles: fine (a/8) where the tool and the local ball are, coarse far away.
-  g.edge_size_m = organ.quantity("edge_size", Dimension::length, g.tool_radius_m / 8);
-  g.size_growth = organ.quantity("size_growth", Dimension::dimensionless, 0.2);
-  g.max_size_m = organ.quantity("max_size", Dimension::length, g.body_radius_m / 10);
-  g.size_exponent = 1.0;
-
-  ConfigTable material = config.table("material");
-  study.material.youngs_modulus_Pa =
-      material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
-  study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
-
-  ConfigTable tool = config.table("tool");
-  study.depth_m = tool.quantity("depth", Dimension::length, 0.1 * g.tool_radius_m);
-  const auto direction = tool.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
-  study.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
-  if (tool.has("point")) {
-    const auto point = tool.vector3("point", Dimension::length, {{0.0, 0.0, 0.0}});
-    study.contact_point_m = Eigen::Vector3d(point[0], point[1], point[2]);
-  }
-  study.contacts.clear();
-  for (const auto& contact : tool.choice_list("contact", names(patch_conditions), {"frictionless"}))
-    study.contacts.push_back(value_of(patch_conditions, contact));
-
-  ConfigTable sprinkling = config.table("sprinkling");
-  mfs::SprinklingSettings& sp = s.sprinkling;
-  study.node_counts.clear();
-  const auto counts = sprinkling.integer_list("node_count", {sp.node_count});
-  for (std::size_t i = 0; i < counts.size(); ++i)
-    study.node_counts.push_back(checked_int(sprinkling.where("node_count") + "[" + std::to_string(i) + "]", counts[i]));
-  sp.local_radius_m = sprinkling.quantity("local_radius", Dimension::length, geometry_l);
-  if (geometry_has_l && sprinkling.has("local_radius") && sp.local_radius_m != geometry_l)
-    throw ConfigError(sprinkling.where("local_radius") + " = " + format_number(sp.local_radius_m) +
-                      " m differs from geometry.local_radius = " + format_number(geometry_l) + " m; keep one");
-  g.local_radius_m = sp.local_radius_m;
-  ConfigTable output = config.table("output");
-  study.write_vtu = output.boolean("vtu", study.write_vtu);
-
-  sp.node_count = study.node_counts.front();
-  config.finish();
-  try {
-    study.validate();
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(config.where("") + e.what());
-  }
-  return study;
-}
-
-std::string resolved_config_toml(const MfsStudy& study) {
-  const mfs::LocalModelSettings& s = study.model;
-  const meshes::MeshParameters& g = study.geometry;
-  const auto array3 = [](const Eigen::Vector3d& v) { return toml::array{v[0], v[1], v[2]}; };
-
-  toml::table geometry{{"benchmark", meshes::to_string(g.benchmark)},
-                       {"body_radius", g.body_radius_m},
-                       {"tool_radius", g.tool_radius_m},
-                       {"contact_polar_angle", g.contact_polar_angle_rad}};
-  toml::table organ;
-  organ.insert("clamped_group", study.clamped_group);
-  if (!study.atlas_path.empty()) organ.insert("atlas", study.atlas_path);
-  if (study.surface_path.empty()) {
-    organ.insert("edge_size", g.edge_size_m);
-    organ.insert("size_growth", g.size_growth);
-    organ.insert("max_size", g.max_size_m);
-  } else {
-    organ.insert("surface", study.surface_path);
-  }
-  toml::array contacts;
-  for (const auto c : study.contacts) contacts.push_back(name_of(patch_conditions, c));
-  toml::table tool{{"depth", study.depth_m}, {"direction", array3(study.direction)}, {"contact", contacts}};
-  if (study.contact_point_m) tool.insert("point", array3(*study.contact_point_m));
-  toml::array node_counts;
-  for (const int n : study.node_counts) node_counts.push_back(n);
-  const mfs::SprinklingSettings& sp = s.sprinkling;
-  const mfs::ForceSettings& f = s.force;
-  const mfs::MlsSettings& m = s.collocation.mls;
-  toml::table document{
-      {"study", study.name},
-      {"paper_mode", s.paper_mode},
-      {"formulation", mfs::to_string(s.formulation)},
-      {"galerkin", toml::table{{"penalty_factor", s.galerkin.penalty_factor},
-                               {"constraint", mfs::to_string(s.galerkin.constraint)}}},
-      {"enriched", toml::table{{"exterior", name_of(exterior_conditions, s.enriched.exterior)},
-                               {"support_neighbours", s.enriched.support_neighbours},
-                               {"min_point_neighbours", s.enriched.min_point_neighbours},
-                               {"volume_radial_points", s.enriched.volume_radial_points},
-                               {"volume_polar_points", s.enriched.volume_polar_points},
-                               {"volume_azimuth_points", s.enriched.volume_azimuth_points},
-                               {"patch_radial_points", s.enriched.patch_radial_points},
-                               {"patch_angular_points", s.enriched.patch_angular_points},
-                               {"free_radial_points", s.enriched.free_radial_points},
-                               {"free_azimuth_points", s.enriched.free_azimuth_points},
-                               {"cut_polar_points", s.enriched.cut_polar_points},
-                               {"cut_azimuth_points", s.enriched.cut_azimuth_points},
-                               {"cut_multiplier_degree", s.enriched.cut_multiplier_degree}}},
-      {"geometry", geometry},
-      {"organ", organ},
-      {"material", toml::table{{"youngs_modulus", study.material.youngs_modulus_Pa}, {"poisson_ratio", study.material.poisson_ratio}}},
-      {"tool", tool},
-      {"sprinkling", toml::table{{"node_count", node_counts},
-                                 {"local_radius", sp.local_radius_m},
-                                 {"layout", name_of(layouts, sp.layout)},
-                                 {"ring_nodes", sp.ring_nodes},
-                                 {"radius_factor", sp.radius_factor},
-                                 {"boundary_radius_factor", sp.boundary_radius_factor},
-                                 {"outer", name_of(outer_conditions, sp.outer)},
-                                 {"oversampling", sp.oversampling},
-                                 {"tip_node_only", sp.tip_node_only},
-                                 {"seed", static_cast<std::int64_t>(sp.seed)}}},
-      {"collocation", toml::table{{"scale_rows", s.collocation.scale_rows},
-                                  {"neumann_stabilization", s.collocation.neumann_stabilization},
-                                  {"boundary_row_weight", s.collocation.boundary_row_weight}}},
-      {"mls", toml::table{{"basis", name_of(bases, m.basis)},
-                          {"weight", name_of(weights, m.weight)},
-                          {"min_rcond", m.min_rcond},
-                          {"max_support_scale", m.max_support_scale}}},
-      {"solver", toml::table{{"kind", name_of(solver_kinds, s.solver.kind)},
-                             {"gmres_tolerance", s.solver.gmres_tolerance},
-                             {"gmres_restart", s.solver.gmres_restart},
-                             {"gmres_max_iterations", s.solver.gmres_max_iterations},
-                             {"max_relative_residual", s.solver.max_relative_residual},
-                             {"ilut_drop_tolerance", s.solver.ilut_drop_tolerance},
-                             {"ilut_fill_factor", s.solver.ilut_fill_factor}}},
-      {"force", toml::table{{"patch_radial_points", f.patch_radial_points},
-                            {"patch_angular_points", f.patch_angular_points},
-                            {"cut_polar_points", f.cut_polar_points},
-                            {"cut_azimuth_points", f.cut_azimuth_points},
-                            {"volume_radial_points", f.volume_radial_points},
-                            {"volume_polar_points", f.volume_polar_points},
-                            {"volume_azimuth_points", f.volume_azimuth_points},
-                            {"extraction_inner_tool_radii", f.extraction_inner_tool_radii},
-                            {"extraction_outer_local_radii", f.extraction_outer_local_radii},
-                            {"extraction_radial_points", f.extraction_radial_points},
-                            {"extraction_polar_points", f.extraction_polar_points},
-                            {"extraction_azimuth_points", f.extraction_azimuth_points},
-                            {"haptic_method", name_of(force_methods, f.haptic_method)},
-                            {"reaction", f.reaction},
-                            {"energy", f.energy},
-                            {"traction", f.traction}}},
-      {"output", toml::table{{"vtu", study.write_vtu}}}};
-  std::ostringstream text;
-  text << "# " << study.name << ", resolved by `touchstone mfs`: every default filled in, quantities in SI (m, Pa, rad).\n"
-       << document << "\n";
-  return text.str();
+meshes::MeshParameters organ_surface_geometry(const MfsStudy& study) {
+  meshes::MeshParameters g = study.geometry;
+  if (g.benchmark == meshes::Benchmark::B3) g.benchmark = meshes::Benchmark::B2;
+  g.refinement = 0;
+  return g;
 }
 
 double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
@@ -907,7 +471,6 @@ nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options
   study.validate();
   const auto start = std::chrono::steady_clock::now();
   fs::create_directories(options.output_directory);
-  write_file_atomically(options.output_directory + "/config.resolved.toml", resolved_config_toml(study));
 
   const Organ organ = load_organ(study, options.output_directory);
   if (!options.quiet)
@@ -939,6 +502,8 @@ nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options
       }
       document["cases"].push_back(std::move(c));
     }
+  // Written with the results, so that a run that fails leaves no resolved config without them.
+  write_file_atomically(options.output_directory + "/config.resolved.toml", resolved_config_toml(study));
   write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");
   if (!options.quiet) print_table(document["cases"], d);
   return document;

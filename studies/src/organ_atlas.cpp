@@ -1,8 +1,11 @@
 #include "touchstone/studies/organ_atlas.hpp"
 
+#include "touchstone/studies/fem_reference/reference_study.hpp"
+
 #include "touchstone/fem/richardson.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/version.hpp"
 
@@ -31,13 +34,6 @@ constexpr double pi = 3.14159265358979323846;
 /// energy at O(h⁴) for the smooth traces here.
 constexpr double energy_convergence_order = 2.0;
 
-std::string format_number(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
-json vector_json(const Eigen::Vector3d& v) { return json::array({v[0], v[1], v[2]}); }
 json matrix_json(const Eigen::Matrix3d& m, int n) {
   json rows = json::array();
   for (int i = 0; i < n; ++i) {
@@ -77,20 +73,6 @@ std::string combination_name(const std::pair<int, int>& c) {
   return c.first == c.second ? names[c.first] : std::string(names[c.first]) + "+" + names[c.second];
 }
 
-json geometry_json(const meshes::MeshParameters& g) {
-  return {{"benchmark", meshes::to_string(g.benchmark)},
-          {"body_radius_m", g.body_radius_m},
-          {"tool_radius_m", g.tool_radius_m},
-          {"local_radius_m", g.local_radius_m},
-          {"contact_polar_angle_rad", g.contact_polar_angle_rad},
-          {"exterior_of_local_ball", g.exterior_of_local_ball},
-          {"edge_size_m", g.edge_size_m},
-          {"size_growth", g.size_growth},
-          {"size_exponent", g.size_exponent},
-          {"power_grading_extent", g.power_grading_extent},
-          {"max_size_m", g.max_size_m},
-          {"refinement", g.refinement}};
-}
 
 std::string sample_label(const meshes::MeshParameters& g) {
   if (g.benchmark == meshes::Benchmark::B1) return "top_centre";
@@ -162,7 +144,7 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
   const auto start = std::chrono::steady_clock::now();
   for (const int level : refinements) {
     g.refinement = level;
-    json key_params{{"geometry", geometry_json(g)},
+    json key_params{{"geometry", mesh_parameters_json(g)},
                     {"youngs_modulus_Pa", material.youngs_modulus_Pa},
                     {"poisson_ratio", material.poisson_ratio},
                     {"trace_depth_m", trace_depth_m},
@@ -343,12 +325,7 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
       solver.choice("method", {"cg_amg_trilinos", "cg_gamg_petsc", "direct_mumps"}, "cg_amg_trilinos"));
   study.solver.relative_tolerance = solver.number("relative_tolerance", study.solver.relative_tolerance);
   study.solver.max_iterations = static_cast<unsigned int>(solver.integer("max_iterations", study.solver.max_iterations));
-  config.finish();
-  try {
-    study.validate();
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(config.where("") + e.what());
-  }
+  finish_and_validate(config, study);
   return study;
 }
 

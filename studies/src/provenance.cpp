@@ -22,7 +22,6 @@ namespace touchstone::studies {
 
 namespace {
 
-std::string error_text(int error_number) { return std::strerror(error_number); }
 
 std::string host_name() {
   std::array<char, 256> buffer{};
@@ -88,70 +87,6 @@ nlohmann::json provenance(const std::string& config_text) {
       {"time_utc", utc_now_iso8601()},
       {"touchstone_version", touchstone::version::project_version},
   };
-}
-
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  if (!parent.empty()) {
-    std::error_code error;
-    std::filesystem::create_directories(parent, error);
-    if (error) {
-      throw std::runtime_error("cannot write '" + path + "': cannot create folder '" +
-                               parent.string() + "' (" + error.message() + ")");
-    }
-  }
-
-  // The pid keeps concurrent writers (e.g. parallel study runs) off each other's temporary.
-  const std::string temporary = path + ".tmp." + std::to_string(getpid());
-  const auto fail = [&](const std::string& what, int error_number) {
-    ::unlink(temporary.c_str());
-    throw std::runtime_error("cannot write '" + path + "': " + what + " (" +
-                             error_text(error_number) + ")");
-  };
-
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    const int error_number = errno;
-    throw std::runtime_error("cannot write '" + path + "': cannot create '" + temporary + "' (" +
-                             error_text(error_number) + ")");
-  }
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int error_number = errno;
-      ::close(fd);
-      fail("write failed", error_number);
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  // close() is where some file systems (NFS) report a failed write-back.
-  if (::close(fd) != 0) fail("close failed", errno);
-  if (::rename(temporary.c_str(), path.c_str()) != 0) fail("rename failed", errno);
-}
-
-std::string read_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) {
-    const int error_number = errno;
-    throw std::runtime_error("cannot read '" + path + "' (" + error_text(error_number) + ")");
-  }
-  std::string text;
-  std::array<char, 65536> buffer{};
-  for (;;) {
-    const ssize_t n = ::read(fd, buffer.data(), buffer.size());
-    if (n == 0) break;
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int error_number = errno;
-      ::close(fd);
-      throw std::runtime_error("cannot read '" + path + "' (" + error_text(error_number) + ")");
-    }
-    text.append(buffer.data(), static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  return text;
 }
 
 }  // namespace touchstone::studies

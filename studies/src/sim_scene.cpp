@@ -1,11 +1,14 @@
 #include "touchstone/studies/sim_scene.hpp"
 
+#include "mfs_settings_fields.hpp"
+
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/haptics/device_recorder.hpp"
 #include "touchstone/realtime/haptics/replay_device.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
 #include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 #ifdef TOUCHSTONE_HAVE_VTK
 #include "touchstone/realtime/graphics/interactive_window.hpp"
@@ -18,6 +21,7 @@
 #include "touchstone/realtime/haptics/openhaptics_device.hpp"
 #endif
 
+#include <algorithm>
 #include <chrono>
 #include <climits>
 #include <cstdio>
@@ -116,7 +120,7 @@ SimScene read_sim_scene(const std::string& path) {
   ConfigTable model = config.table("model");
   s.model.force.energy = false;
   s.model.force.traction = false;
-  read_local_model_sections(model, s.model);
+  read_local_model_settings(model, s.model);
   ConfigTable sprinkling = model.table("sprinkling");
   s.model.sprinkling.node_count = read_int(sprinkling, "node_count", 60);
   s.model.sprinkling.local_radius_m = sprinkling.quantity("local_radius", Dimension::length, 5 * s.tool.tip_radius_m);
@@ -181,6 +185,12 @@ SimScene read_sim_scene(const std::string& path) {
     scene.palpation.validate();
     scene.generated_organ.validate();
     if (!(scene.device_max_force_N > 0)) throw std::invalid_argument("device.max_force must be > 0");
+    // Every model build would fail (the patch would not fit in the local ball): refused here,
+    // as `touchstone mfs` refuses it, rather than a run that feels nothing.
+    const double L = s.model.sprinkling.local_radius_m;
+    if (!(s.tool.tip_radius_m < 0.5 * L))
+      throw std::invalid_argument("tool.tip_radius = " + format_number(s.tool.tip_radius_m) +
+                                  " m must be < model.sprinkling.local_radius / 2 = " + format_number(0.5 * L) + " m");
     if (scene.time_series_frame_stride < 1) throw std::invalid_argument("output.frame_stride must be >= 1");
   } catch (const std::invalid_argument& error) {
     throw ConfigError(path + ": " + error.what());
@@ -239,6 +249,9 @@ json summary_json(const rt::RunSummary& r) {
         {"output_step_max_N", f.output_step_max_N}, {"model_latency_p50_s", f.model_latency_p50_s},
         {"model_latency_max_s", f.model_latency_max_s}, {"model_latency_samples", f.model_latency_samples},
         {"build_p50_s", f.build_p50_s}, {"build_max_s", f.build_max_s}}},
+      {"model_builds",
+       {{"exterior_used", r.exterior_used},
+        {"first_build_error", r.first_build_error.empty() ? json(nullptr) : json(r.first_build_error)}}},
       {"notes", r.notes},
   };
 }
@@ -297,6 +310,16 @@ std::string summary_text(const rt::RunSummary& r) {
   return out.str();
 }
 
+std::string generated_organ_cache_name(const meshes::OrganParameters& organ) {
+  std::ostringstream key;
+  key.precision(17);
+  key << "organ-v1|" << meshes::to_string(organ.shape) << "|" << organ.target_triangles << "|"
+      << organ.relative_tolerance << "|" << organ.stomach_scale << "|" << organ.stomach_flattening << "|"
+      << organ.hemisphere_radius_m << "|" << organ.max_passes;
+  return "organ_" + meshes::to_string(organ.shape) + "_" + std::to_string(organ.target_triangles) + "_" +
+         sha256_hex(key.str()).substr(0, 12) + ".vtp";
+}
+
 namespace {
 
 std::string fmt_seconds(double seconds) {
@@ -307,14 +330,24 @@ std::string fmt_seconds(double seconds) {
 
 geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
   if (!scene.surface_path.empty()) return meshes::load_surface(scene.surface_path);
-  // Generated shapes are cached beside the outputs (deterministic for the parameters).
+  // Generated shapes are cached beside the outputs under a name that hashes every parameter;
+  // a cached file that cannot be read (a run killed while writing it, before the atomic
+  // rename existed) is generated again, not an error.
   const auto& g = scene.generated_organ;
-  const fs::path cached = fs::path(output_directory) /
-                          ("organ_" + meshes::to_string(g.shape) + "_" + std::to_string(g.target_triangles) + ".vtp");
-  if (fs::is_regular_file(cached)) return meshes::load_surface(cached.string());
+  const fs::path cached = fs::path(output_directory) / generated_organ_cache_name(g);
+  if (fs::is_regular_file(cached)) {
+    try {
+      return meshes::load_surface(cached.string());
+    } catch (const std::exception& e) {
+      if (print) std::printf("note: the cached organ %s cannot be read (%s); generating it again\n", cached.string().c_str(), e.what());
+    }
+  }
   const auto start = std::chrono::steady_clock::now();
   const meshes::OrganMesh mesh = meshes::generate_organ_mesh(g);
-  meshes::write_surface_mesh(cached.string(), mesh.vertices, mesh.triangles);
+  fs::create_directories(cached.parent_path());
+  const fs::path partial = cached.string() + ".partial.vtp";
+  meshes::write_surface_mesh(partial.string(), mesh.vertices, mesh.triangles);
+  fs::rename(partial, cached);
   if (print)
     std::printf("organ: %s, %zu triangles (generated in %.1f s, cached as %s)\n", meshes::to_string(g.shape).c_str(),
                 mesh.triangles.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
@@ -392,7 +425,9 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   haptics::HapticDevice* active = device.get();
   if (device && !options.record_path.empty()) {
     const double seconds = s.duration_s > 0 ? s.duration_s : 600.0;
-    recorder = std::make_unique<haptics::RecordingDevice>(*device, static_cast<std::size_t>(seconds * s.rates.haptic_hz) + 16);
+    // Reserved before the run (no allocation in the haptic tick), bounded like the force history.
+    const double ticks = std::min(seconds * s.rates.haptic_hz + 16, double(rt::max_force_history_samples));
+    recorder = std::make_unique<haptics::RecordingDevice>(*device, static_cast<std::size_t>(ticks));
     active = recorder.get();
   }
 

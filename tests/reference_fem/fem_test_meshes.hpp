@@ -104,7 +104,7 @@ inline std::string coarse_hemisphere_mesh(const std::string& name) {
   return path;
 }
 
-/// The level-0 mesh of studies/b3_reference.toml's first family: B3 (R = 50 mm, a = 2.5 mm,
+/// The level-0 mesh of studies/configs/b3_reference.toml's first family: B3 (R = 50 mm, a = 2.5 mm,
 /// L = 5a = 12.5 mm), edge size a/16 graded as d^(3/4), max 2 mm. About 24k P2 dofs.
 inline std::string b3_ladder_level0_mesh(const std::string& name) {
   meshes::MeshParameters parameters;

@@ -52,7 +52,7 @@ INSTANTIATE_TEST_SUITE_P(PoissonRatios, MixedPatchTest, ::testing::Values(0.3, 0
                          [](const auto& info) { return "nu" + std::to_string(int(info.param * 1e4)); });
 
 /// Axial punch force [N] of B3 on the level-0 mesh of the b3_reference ladder (frictionless,
-/// δ = 0.25 mm as in studies/b3_reference.toml).
+/// δ = 0.25 mm as in studies/configs/b3_reference.toml).
 double b3_level0_force(double nu, Formulation formulation) {
   ElasticityProblem problem;
   problem.mesh_path = testing::b3_ladder_level0_mesh("mixed_b3_level0");
@@ -69,7 +69,7 @@ double b3_level0_force(double nu, Formulation formulation) {
 
 // Locking. Reference: the Richardson estimate of the mixed B3 ladder at ν = 0.4999 (this mesh
 // family, levels 0–2, 24k/137k/935k dofs: 26.823, 25.869, 25.599 mN, observed order 1.82, GCI
-// 0.52 %), F_ref = 25.493 mN, measured with `touchstone fem` and studies/b3_reference_mixed.toml
+// 0.52 %), F_ref = 25.493 mN, measured with `touchstone fem` and studies/configs/b3_reference_mixed.toml
 // restricted to frictionless, ν = 0.4999, edge_size a/16. On level 0 the mixed force sits 5.2 %
 // above it (the first-order edge error, as the displacement formulation at ν = 0.45), the
 // displacement formulation's 32 % above (locking). Tolerances: mixed within (0, +8 %],
@@ -87,7 +87,7 @@ TEST(MixedFormulation, PunchForceDoesNotLockNearIncompressibility) {
 }
 
 // Far from the limit both are consistent discretisations of the same problem: they differ by
-// much less than the level-0 mesh's own discretisation error (studies/b3_reference.toml reports
+// much less than the level-0 mesh's own discretisation error (studies/configs/b3_reference.toml reports
 // it; the difference is printed here, tolerance 4 %), and the condensed element is the softer
 // one.
 TEST(MixedFormulation, AgreesWithDisplacementFormulationAtModeratePoisson) {

@@ -1,5 +1,5 @@
 """The shipped palpation scene runs headless for 60 s with the scripted device. Runs
-`touchstone sim studies/scenes/palpation.toml` on real threads and checks its summary.json: the
+`touchstone sim studies/configs/scenes/palpation.toml` on real threads and checks its summary.json: the
 run lasted the full minute, the haptic loop's p99 lateness and missed deadlines are reported
 (and printed against the 1 kHz loop's timing targets), the palpations touched the organ with
 the model ready or faded in, the safety filter never intervened on this benign
@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 import vtk
 
 binary, source, out = sys.argv[1], pathlib.Path(sys.argv[2]), pathlib.Path(sys.argv[3])
-scene = source / "studies" / "scenes" / "palpation.toml"
+scene = source / "studies" / "configs" / "scenes" / "palpation.toml"
 subprocess.run([binary, "sim", str(scene), "--out", str(out)], check=True)
 summary = json.loads((out / "summary.json").read_text())
 failures = []

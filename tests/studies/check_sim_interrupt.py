@@ -10,7 +10,7 @@ import sys
 import time
 
 binary, source, out = sys.argv[1], pathlib.Path(sys.argv[2]), pathlib.Path(sys.argv[3])
-scene = source / "studies" / "scenes" / "palpation.toml"
+scene = source / "studies" / "configs" / "scenes" / "palpation.toml"
 process = subprocess.Popen([binary, "sim", str(scene), "--out", str(out)], stdout=subprocess.PIPE, text=True)
 deadline = time.time() + 120
 while time.time() < deadline and "sim palpation:" not in (line := process.stdout.readline()):

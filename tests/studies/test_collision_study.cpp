@@ -4,7 +4,8 @@
 // distance per free prediction cycle, no missed contact), report.md showing the numbers of
 // results.json, and config errors that name the file and the key.
 #include "touchstone/studies/collision_study.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,10 @@
 // `touchstone mfs` end to end on a tiny sweep (N = 34, 60 on the B2 hemisphere): the
 // results.json contract (the fields other tools read), the resolved config, the VTU files, and
 // config errors that name the file and the key or field.
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
-#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/fem_reference/probes.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>

@@ -73,14 +73,14 @@ TEST(OrganAtlasHalfSpace, ClosedFormConvergesAndHasThePunchSymmetry) {
 // the file and the key; angles take units.
 TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
   for (const char* name : {"atlas_hemisphere.toml", "atlas_b1.toml"}) {
-    ConfigTable config = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/" + name);
+    ConfigTable config = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/" + name);
     const OrganAtlasStudy study = read_organ_atlas_study(config);
     EXPECT_EQ(study.modes, AtlasModes::all) << name;
     EXPECT_EQ(study.refinements, (std::vector<int>{0, 1, 2})) << name;
     EXPECT_DOUBLE_EQ(study.geometry.tool_radius_m, a) << name;
     EXPECT_DOUBLE_EQ(study.geometry.local_radius_m, l) << name;
   }
-  ConfigTable hemisphere = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/atlas_hemisphere.toml");
+  ConfigTable hemisphere = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/atlas_hemisphere.toml");
   EXPECT_NEAR(read_organ_atlas_study(hemisphere).polar_angles_rad.at(2), 30 * 3.14159265358979323846 / 180, 1e-15);
   ConfigTable typo = ConfigTable::from_string("[atlas]\npolar_angle = [\"10 deg\"]\n", "typo.toml");
   try {

@@ -1,5 +1,5 @@
 // Probe points: identical for both models, on the surface or the tool axis where they say.
-#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/fem_reference/probes.hpp"
 
 #include <gtest/gtest.h>
 

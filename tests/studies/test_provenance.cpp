@@ -1,3 +1,4 @@
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>

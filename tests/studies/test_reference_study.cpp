@@ -1,9 +1,10 @@
 // `touchstone fem` end to end on a tiny B2 problem: the results.json contract (the fields other
 // tools read), the cache, and config errors that name the file and key.
 #include "touchstone/fem/elasticity_problem.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
-#include "touchstone/studies/reference_study.hpp"
+#include "touchstone/studies/fem_reference/reference_study.hpp"
 
 #include <gtest/gtest.h>
 

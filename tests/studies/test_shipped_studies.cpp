@@ -19,10 +19,10 @@ namespace {
 namespace fs = std::filesystem;
 using namespace touchstone::studies;
 
-/// studies/*.toml files that have a [problem] table, sorted.
+/// studies/configs/*.toml files that have a [problem] table, sorted.
 std::vector<fs::path> comparison_studies() {
   std::vector<fs::path> files;
-  for (const auto& entry : fs::directory_iterator(fs::path(TOUCHSTONE_SOURCE_DIR) / "studies")) {
+  for (const auto& entry : fs::directory_iterator(fs::path(TOUCHSTONE_SOURCE_DIR) / "studies" / "configs")) {
     if (!entry.is_regular_file() || entry.path().extension() != ".toml") continue;
     const toml::table document = toml::parse_file(entry.path().string());
     if (document.contains("problem") && document.get("problem")->is_table()) files.push_back(entry.path());
@@ -36,7 +36,7 @@ TEST(ShippedStudies, TheComparisonStudiesAreShipped) {
   for (const auto& path : comparison_studies()) names.insert(path.stem().string());
   for (const char* expected : {"hemisphere", "ci_accuracy", "sprinkling", "paper_mode", "truncation", "formulation",
                                "stability", "poisson", "half_space"})
-    EXPECT_TRUE(names.count(expected)) << "studies/" << expected << ".toml is missing or has no [problem] table";
+    EXPECT_TRUE(names.count(expected)) << "studies/configs/" << expected << ".toml is missing or has no [problem] table";
 }
 
 TEST(ShippedStudies, EveryComparisonStudyReadsAndHasMfsCases) {
@@ -77,7 +77,7 @@ namespace {
 
 /// The B1 study: the cylinder, its own B1 reference, the engine's default series and the paper's.
 TEST(ShippedStudies, HalfSpaceIsBenchmarkB1AgainstItsOwnReference) {
-  const ComparisonStudy study = read_comparison_study(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/half_space.toml");
+  const ComparisonStudy study = read_comparison_study(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/half_space.toml");
   ASSERT_EQ(study.problems.size(), 1u);
   const StudyProblem& p = study.first();
   EXPECT_EQ(p.problem.benchmark, touchstone::meshes::Benchmark::B1);
@@ -96,7 +96,7 @@ TEST(ShippedStudies, HalfSpaceIsBenchmarkB1AgainstItsOwnReference) {
 
 /// The reworked stress test and Poisson study: one file each, several problems.
 TEST(ShippedStudies, StabilityAndPoissonCoverTheirRangesInOneFile) {
-  const std::string dir = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
+  const std::string dir = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/";
   const ComparisonStudy poisson = read_comparison_study(dir + "poisson.toml");
   std::set<double> nus;
   for (const auto& p : poisson.problems) nus.insert(p.problem.material.poisson_ratio);

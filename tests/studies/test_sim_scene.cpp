@@ -5,6 +5,7 @@
 #include "support/temporary_directory.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 namespace touchstone::studies {
 namespace {
@@ -19,7 +21,7 @@ namespace {
 const std::string source_dir = TOUCHSTONE_SOURCE_DIR;
 
 TEST(SimScene, ReadsTheShippedPalpationScene) {
-  const SimScene scene = read_sim_scene(source_dir + "/studies/scenes/palpation.toml");
+  const SimScene scene = read_sim_scene(source_dir + "/studies/configs/scenes/palpation.toml");
   EXPECT_EQ(scene.name, "palpation");
   EXPECT_EQ(scene.settings.duration_s, 60.0);
   EXPECT_EQ(scene.generated_organ.shape, meshes::OrganShape::stomach);
@@ -57,6 +59,12 @@ TEST(SimScene, BadScenesNameTheFileAndKey) {
   expect_scene_error("[material]\npoisson_ratio = 0.5\n", "poisson_ratio");
   expect_scene_error("[device]\nkind = \"replay\"\n", "replay");
   expect_scene_error("[model.sprinkling]\nnode_count = \"many\"\n", "node_count");
+  // Absurd run lengths and rates are refused before anything is reserved for them.
+  expect_scene_error("duration = \"1e9 s\"\n", "duration");
+  expect_scene_error("[rates]\nhaptic_hz = 1e9\n", "rates.haptic_hz");
+  // A tip that does not fit in the local ball: every build would fail and the device feel nothing.
+  expect_scene_error("[tool]\ntip_radius = \"2.5 mm\"\n[model.sprinkling]\nlocal_radius = \"4 mm\"\n",
+                     "tool.tip_radius");
 }
 
 /// A small scene on a sphere written to a file: collocation (fast builds), 6 s of palpation.
@@ -134,6 +142,63 @@ TEST(SimRun, ARecordingReplaysToTheSameForces) {
   const nlohmann::json replayed = run_sim(scene, options);
   EXPECT_EQ(replayed["device"], "replay");
   EXPECT_EQ(read_file(directory.path("recorded/forces.csv")), read_file(directory.path("replayed/forces.csv")));
+}
+
+
+// A generated organ is cached under a name that changes with every parameter: a changed
+// parameter never reuses the old organ.
+TEST(SimScene, GeneratedOrganCacheNameCoversEveryParameter) {
+  meshes::OrganParameters base;
+  const std::string name = generated_organ_cache_name(base);
+  EXPECT_EQ(name, generated_organ_cache_name(base));
+  std::set<std::string> names{name};
+  auto changed = [&](auto change) {
+    meshes::OrganParameters p = base;
+    change(p);
+    return names.insert(generated_organ_cache_name(p)).second;
+  };
+  EXPECT_TRUE(changed([](auto& p) { p.shape = meshes::OrganShape::hemisphere; }));
+  EXPECT_TRUE(changed([](auto& p) { p.target_triangles += 1; }));
+  EXPECT_TRUE(changed([](auto& p) { p.relative_tolerance = 0.04; }));
+  EXPECT_TRUE(changed([](auto& p) { p.stomach_scale = 1.1; }));
+  EXPECT_TRUE(changed([](auto& p) { p.stomach_flattening = 0.8; }));
+  EXPECT_TRUE(changed([](auto& p) { p.hemisphere_radius_m = 0.06; }));
+  EXPECT_TRUE(changed([](auto& p) { p.max_passes = 5; }));
+}
+
+// A truncated cached organ (a run killed while writing it) is generated again, and the run
+// goes on with the regenerated organ.
+TEST(SimRun, ATruncatedCachedOrganIsGeneratedAgain) {
+  touchstone::testing::TemporaryDirectory directory("sim");
+  const std::string scene_path = directory.file("generated.toml", R"(
+scene = "generated"
+duration = "0.2 s"
+[organ]
+shape = "hemisphere"
+triangles = 600
+hemisphere_radius = "40 mm"
+[model]
+formulation = "collocation"
+[model.sprinkling]
+node_count = 40
+[model.force]
+reaction = false
+[output]
+frame_stride = 10
+)");
+  const SimScene scene = read_sim_scene(scene_path);
+  SimOptions options;
+  options.virtual_clock = true;
+  options.print = false;
+  options.output_directory = directory.path("out");
+  const nlohmann::json first = run_sim(scene, options);
+  const std::string cached = directory.path("out/" + generated_organ_cache_name(scene.generated_organ));
+  ASSERT_TRUE(std::filesystem::exists(cached)) << cached;
+  const std::string text = read_file(cached);
+  write_file_atomically(cached, text.substr(0, text.size() / 3));
+  const nlohmann::json second = run_sim(scene, options);
+  EXPECT_EQ(second["organ_triangles"], first["organ_triangles"]);
+  EXPECT_EQ(read_file(cached), text);  // regenerated: gmsh is deterministic for the parameters
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
-// CI accuracy regression: studies/ci_accuracy.toml (a coarse FEM reference on B3
-// and small MFS series, well under a minute) against studies/baselines/ci_accuracy.json. The
+// CI accuracy regression: studies/configs/ci_accuracy.toml (a coarse FEM reference on B3
+// and small MFS series, well under a minute) against studies/configs/baselines/ci_accuracy.json. The
 // thresholds are physical: each MFS force error and displacement error within 0.5 percentage
 // points of the baseline, the FEM reference force within 0.1 %. A second run must resume every
 // MFS case from the output folder with identical numbers.
 #include "touchstone/studies/study_runner.hpp"
 
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include "study_test_support.hpp"
@@ -25,7 +26,7 @@ using namespace touchstone::studies;
 using namespace touchstone::studies::testing;
 
 TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
-  const std::string config = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/ci_accuracy.toml";
+  const std::string config = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/ci_accuracy.toml";
   const ComparisonStudy study = read_comparison_study(config);
   ASSERT_FALSE(study.baseline_path.empty());
   ASSERT_TRUE(fs::exists(study.baseline_path)) << study.baseline_path;
@@ -112,7 +113,7 @@ TEST(CiAccuracy, MatchesTheBaselineAndResumes) {
 // settings, and resuming one variant with --only.
 TEST(StudyVariants, SeparateReferencesB5AndAccuracyFlags) {
   const fs::path out = scratch_directory("study_variants");
-  const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/";
+  const std::string studies = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/";
   const std::string common = problem_text("B3", "b3_reference.toml", "1.25 mm");
   // A variant's own reference: the study's coarse mesh on another FEM file.
   const auto coarse_reference = [&](const std::string& variant, const std::string& config) {

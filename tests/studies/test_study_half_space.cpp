@@ -8,7 +8,7 @@
 
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -3,8 +3,8 @@
 // baseline check.
 #include "touchstone/studies/study_runner.hpp"
 
-#include "touchstone/studies/config_reader.hpp"
-#include "touchstone/studies/probes.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
+#include "touchstone/studies/fem_reference/probes.hpp"
 
 #include <gtest/gtest.h>
 

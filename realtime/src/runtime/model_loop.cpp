@@ -70,9 +70,12 @@ void ModelLoop::adopt(BuildResult result) {
   if (result.request.reason == BuildReason::resprinkle) ++work.model_resprinkles;
   if (!result.model || !result.model->ok()) {
     ++work.model_build_failures;
+    if (first_build_error.empty())
+      first_build_error = !result.error.empty() ? result.error : result.model ? result.model->status : "no model";
     return;  // keep the previous model; the contact will ask again
   }
   model = result.model;
+  ++exterior_used[model->exterior_used.empty() ? "none" : model->exterior_used];
   snapshot.model_id += 1;
   snapshot.valid = true;
   snapshot.tool_stiffness_N_per_m = plain(model->tool_stiffness_N_per_m);

@@ -6,6 +6,9 @@
 
 #include "runtime_state.hpp"
 
+#include <map>
+#include <string>
+
 namespace touchstone::realtime::runtime {
 
 struct ModelLoop {
@@ -17,6 +20,10 @@ struct ModelLoop {
   BuildRequest in_flight;
   std::vector<double> build_times_s;
   WorkCounters work;  // model fields only
+  /// Builds that succeeded, by the exterior the model used (enriched: "clamped", "half_space",
+  /// "body_aware", or "half_space" after a body-aware fallback); other formulations: "none".
+  std::map<std::string, long long> exterior_used;
+  std::string first_build_error;  ///< why the first failed build failed ("" when none did)
 
   ModelLoop(RuntimeState& sim_, bool synchronous_) : sim(sim_), synchronous(synchronous_) {}
 

@@ -44,6 +44,9 @@ void RateSettings::validate() const {
   if (model_hz > haptic_hz)
     throw std::invalid_argument("rates.model_hz = " + std::to_string(model_hz) + " must not exceed rates.haptic_hz = " +
                                 std::to_string(haptic_hz));
+  if (haptic_hz > max_haptic_hz)
+    throw std::invalid_argument("rates.haptic_hz = " + std::to_string(haptic_hz) + " must be <= " +
+                                std::to_string(max_haptic_hz) + " (haptic devices run at 1-10 kHz)");
 }
 
 void ToolSettings::validate() const {
@@ -82,6 +85,9 @@ void SceneSettings::validate() const {
   prediction.validate();
   timing.validate();
   require_non_negative(duration_s, "duration_s");
+  if (duration_s > max_duration_s)
+    throw std::invalid_argument("duration_s = " + std::to_string(duration_s) + " must be <= " + std::to_string(max_duration_s) +
+                                " (30 days)");
   require_non_negative(connect_timeout_s, "connect_timeout_s");
   if (model.paper_mode)
     throw std::invalid_argument("model.paper_mode: the paper's point tool gives no usable force (it tends to zero as the node cloud is refined); "
@@ -145,6 +151,12 @@ struct Simulation::Impl : RuntimeState {
       work.model_forces = model->work.model_forces;
       summary.forces.build_p50_s = median_of(model->build_times_s);
       summary.forces.build_max_s = model->build_times_s.empty() ? 0 : *std::max_element(model->build_times_s.begin(), model->build_times_s.end());
+      summary.exterior_used = model->exterior_used;
+      summary.first_build_error = model->first_build_error;
+      if (work.model_build_failures > 0)
+        notes.push_back(std::to_string(work.model_build_failures) + " of " + std::to_string(work.model_builds) +
+                        " model builds failed (the force stayed on the previous model, or zero); the first: " +
+                        model->first_build_error);
     }
     if (graphics) {
       work.graphics_frames = graphics->work.graphics_frames;
@@ -194,7 +206,8 @@ struct Simulation::Impl : RuntimeState {
         const double seconds = settings.duration_s > 0 ? settings.duration_s : 600.0;
         // Filled then emptied: the pages are touched now, not by the first tick to reach each
         // one (a page fault costs microseconds).
-        loops.history.resize(static_cast<std::size_t>(seconds * settings.rates.haptic_hz) + 16);
+        const double ticks = seconds * settings.rates.haptic_hz + 16;
+        loops.history.resize(static_cast<std::size_t>(std::min(ticks, double(max_force_history_samples))));
         loops.history.clear();
         loops.haptic->history = &loops.history;
       }

@@ -448,33 +448,5 @@ TEST(InteractiveWindow, RefusesFramesFromAnotherThreadAndBadFrames) {
   window.end();
 }
 
-// The cost of one window frame for an organ of ~20,000 triangles (printed, not asserted: unit
-// tests never assert wall-clock times; Xvfb renders with Mesa's software rasterizer, slower than
-// a GPU).
-TEST(InteractiveWindow, ReportsTheCostOfAFrame) {
-  REQUIRE_XVFB();
-  InteractiveWindowSettings settings;
-  settings.width = 640;
-  settings.height = 480;
-  const auto organ = sphere(5);
-  Scene scene(organ);
-  InteractiveWindow window(settings);
-  window.begin(organ);
-  std::vector<GraphicsFrame> frames;
-  window.frame(scene.make(0, Vector3d(0, 0, 1)));  // first render: shader compilation
-  double seconds = 0;
-  constexpr int count = 20;
-  for (int k = 1; k <= count; ++k) {
-    const GraphicsFrame frame = scene.make(k, Vector3d(0, 0, 1));
-    const auto start = std::chrono::steady_clock::now();
-    window.frame(frame);
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
-  window.end();
-  std::cout << "[ info ] " << organ.triangles().size() << " triangles, 640x480 under Xvfb: "
-            << 1e3 * seconds / count << " ms per window frame\n";
-  EXPECT_EQ(window.frames_rendered(), count + 1);
-}
-
 }  // namespace
 }  // namespace touchstone::realtime::graphics

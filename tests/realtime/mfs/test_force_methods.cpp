@@ -3,13 +3,13 @@
 // 2U/δ, (d) the paper's partition with tributary scaling, on the B3 domain (hemisphere
 // R = 50 mm ∩ ball(pole, 5a), clamped cut, frictionless punch a = 2.5 mm, δ = 0.25 mm), with the
 // Galerkin default. They converge to each other by converging to one limit, the FEM on the same
-// domain (22.04 mN from studies/b3_reference.toml, which reports its own discretisation error):
+// domain (22.04 mN from studies/configs/b3_reference.toml, which reports its own discretisation error):
 // the test asserts that the band holding all four narrows around it.
 //
 // Measured on this surface (N = 103, 201, 409), error against the FEM:
 //   (a) +66.5 +35.5 +9.3 %  (b) +58.5 +35.4 +22.3 %  (c) +38.6 +25.6 +17.7 %  (d) +57.4 +35.2 +21.5 %
 //   spread (max − min) 6.15, 2.18, 2.87 mN
-// (touchstone mfs studies/mfs_b3_galerkin.toml continues the series on a finer surface to
+// (touchstone mfs studies/configs/mfs_b3_galerkin.toml continues the series on a finer surface to
 // N ≈ 800.) The surface form of (a), σ(u_h)n on the patch, is printed too: −56, −33, −37 % —
 // the smooth MLS field cannot carry the r^(−1/2) edge stress pointwise, which is why (a) is
 // evaluated in its domain form. The collocation-style weights for (d) (tributary area /
@@ -28,7 +28,7 @@ namespace touchstone::realtime::mfs {
 namespace {
 
 constexpr double depth_m = 0.25e-3;
-constexpr double fem_reference_N = 0.022038;  // touchstone fem studies/b3_reference.toml: frictionless, mean of 2 families (spread 0.2 %)
+constexpr double fem_reference_N = 0.022038;  // touchstone fem studies/configs/b3_reference.toml: frictionless, mean of 2 families (spread 0.2 %)
 
 using testing::hemisphere;
 using testing::pole_contact;

@@ -17,7 +17,7 @@ namespace touchstone::realtime::mfs {
 namespace {
 
 constexpr double depth_m = 0.25e-3;
-constexpr double fem_reference_N = 0.022038;  // touchstone fem studies/b3_reference.toml, frictionless
+constexpr double fem_reference_N = 0.022038;  // touchstone fem studies/configs/b3_reference.toml, frictionless
 
 using testing::hemisphere;
 using testing::pole_contact;
@@ -108,7 +108,7 @@ TEST(Galerkin, PatchNodeRowsAreTheConstraintTractionWeightedByTheirShapeFunction
 
 TEST(Galerkin, ForceConvergesToTheFemFromAbove) {
   // Measured on this surface: reaction +259 %, +59 %, +22 % and energy +184 %, +39 %, +18 % at
-  // N = 33, 103, 409 (touchstone mfs studies/mfs_b3_galerkin.toml continues the series to
+  // N = 33, 103, 409 (touchstone mfs studies/configs/mfs_b3_galerkin.toml continues the series to
   // N ≈ 800).
   std::vector<double> reaction, energy;
   for (const int n : {34, 100, 400}) {

@@ -22,7 +22,7 @@
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/realtime/collision/collision_prediction.hpp"
 #include "touchstone/realtime/collision/surface_queries.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -6,7 +6,7 @@
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -55,11 +55,10 @@ struct MfsStudy {
   void validate() const;
 };
 
-/// Reads the engine's sections of `config` into `settings` (its current values are the
-/// defaults): `formulation` and the tables [galerkin], [sprinkling] (all but node_count and
-/// local_radius, which the caller reads), [collocation], [mls], [solver], [force]. Shared by
-/// `touchstone mfs` studies and `touchstone sim` scenes.
-void read_local_model_sections(ConfigTable& config, realtime::mfs::LocalModelSettings& settings);
+/// The mesh parameters of a generated organ surface: B3 is the hemisphere seen through the local
+/// ball, so the MFS cuts the ball itself and its organ is the whole hemisphere (B2), not the
+/// truncated FEM domain; B1 (the cylinder), B2 and B5 are their own organ.
+meshes::MeshParameters organ_surface_geometry(const MfsStudy& study);
 
 /// Reads a study; every key is checked (unknown keys are errors naming the file and key), and
 /// invalid values end in a ConfigError naming the file and the field. A relative

@@ -16,7 +16,7 @@
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/realtime/mfs/material.hpp"
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>

@@ -8,7 +8,7 @@
 #include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 #include "touchstone/realtime/runtime/simulation.hpp"
-#include "touchstone/studies/config_reader.hpp"
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -62,6 +62,10 @@ struct SimOptions {
   const std::atomic<bool>* stop = nullptr;  ///< Ctrl-C
   bool print = true;
 };
+
+/// The file name a generated organ is cached under in the output folder: shape, triangle count
+/// and a hash of every parameter, so that a changed parameter generates a new organ.
+std::string generated_organ_cache_name(const meshes::OrganParameters& organ);
 
 /// Runs the scene and writes <out>/summary.json (and forces.csv, the time series, the
 /// recording). Returns the summary document.

@@ -13,7 +13,7 @@
 /// already in the output folder; FEM solves are reused through the reference study's cache.
 
 #include "touchstone/studies/mfs_study.hpp"
-#include "touchstone/studies/reference_study.hpp"
+#include "touchstone/studies/fem_reference/reference_study.hpp"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>

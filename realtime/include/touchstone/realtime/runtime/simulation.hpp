@@ -38,10 +38,19 @@
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 
 #include <atomic>
+#include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
 namespace touchstone::realtime::runtime {
+
+/// Limits that keep a run's memory bounded and refuse absurd settings with a named error.
+inline constexpr double max_haptic_hz = 100e3;           ///< [Hz]
+inline constexpr double max_duration_s = 30 * 86400.0;   ///< [s]: 30 days
+/// The force history keeps at most this many ticks (about 100 MB; 17 min at 1 kHz); ticks
+/// beyond are counted and a note says so.
+inline constexpr std::size_t max_force_history_samples = std::size_t(1) << 20;
 
 struct RateSettings {
   double haptic_hz = 1000.0;
@@ -108,7 +117,8 @@ struct SceneSettings {
   double duration_s = 0;
   /// Waiting for a network device's first connection ends the run after this [s].
   double connect_timeout_s = 30.0;
-  /// Keep the history of every tick's force (study mode; reserved before the run).
+  /// Keep the history of every tick's force (study mode; reserved before the run, at most
+  /// max_force_history_samples).
   bool record_force_history = false;
   void validate() const;
 };
@@ -183,6 +193,9 @@ struct RunSummary {
   WorkCounters work;
   ForceStatistics forces;
   std::vector<ForceSample> force_history;  ///< when SceneSettings::record_force_history
+  /// Successful model builds by the exterior the model used ("none" outside the enriched model).
+  std::map<std::string, long long> exterior_used;
+  std::string first_build_error;  ///< why the first failed model build failed ("" when none did)
   std::vector<std::string> notes;
 };
 

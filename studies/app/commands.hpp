@@ -1,0 +1,37 @@
+#pragma once
+// The subcommands of `touchstone`: each file of this folder adds one (its options, its help and
+// what it runs) to the program; main() runs the one the command line names. One dispatch style:
+// every command is an action returning the exit status, and main() turns an exception into a
+// message on stderr and status 1.
+//
+// Exit status: 0 done; 1 an error (named on stderr); 2 `surface check` found defects;
+// 3 `study` found a regression against its CI baseline.
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <vector>
+
+namespace touchstone::app {
+
+/// The process's arguments, for the commands that start MPI (fem, study, atlas).
+struct ProgramArguments {
+  int* argc = nullptr;
+  char*** argv = nullptr;
+};
+
+struct Command {
+  const CLI::App* subcommand = nullptr;  ///< parsed() when the command line names it
+  std::function<int()> run;              ///< returns the exit status; throws on error
+};
+
+void add_mesh_command(CLI::App& program, std::vector<Command>& commands);
+void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);
+void add_mfs_command(CLI::App& program, std::vector<Command>& commands);
+void add_surface_commands(CLI::App& program, std::vector<Command>& commands);
+void add_collision_command(CLI::App& program, std::vector<Command>& commands);
+void add_study_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);
+void add_atlas_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);
+void add_sim_command(CLI::App& program, std::vector<Command>& commands);
+
+}  // namespace touchstone::app

@@ -1,0 +1,52 @@
+#pragma once
+/// @file
+/// What every subcommand needs to write its outputs: results.json numbers that never hold NaN,
+/// numbers for the console and CSV cells, JSON look-ups that tolerate missing fields, and files
+/// written atomically (a reader never sees half a file; a killed run leaves the old one).
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+namespace touchstone::studies {
+
+// --- JSON -------------------------------------------------------------------------------------
+
+/// A finite number as itself, a non-finite one as null (JSON has no NaN).
+nlohmann::json json_number(double value);
+nlohmann::json vector_json(const Eigen::Vector3d& v);  ///< [x, y, z], non-finite → null
+nlohmann::json matrix_json(const Eigen::Matrix3d& m);  ///< rows, non-finite → null
+/// A JSON number, or NaN when it is null, absent or not a number.
+double value_or_nan(const nlohmann::json& j);
+double value_or_nan(const nlohmann::json& object, const char* key);
+/// F·d of a JSON 3-vector; NaN when it is not one.
+double axial(const nlohmann::json& vector, const Eigen::Vector3d& d);
+/// The node at `path` below `j`, or a null node when any step is missing.
+const nlohmann::json& json_at_path(const nlohmann::json& j, const std::vector<std::string>& path);
+
+// --- Text -------------------------------------------------------------------------------------
+
+/// A number for the console and for labels; "-" for a missing one (a failed case has no force:
+/// "nan" would read like a numerical failure of a case that reported its status instead).
+std::string format_number(double value);
+/// A fixed-width table cell: `value` with `decimals`, or "-" right-aligned when it is missing.
+std::string table_cell(double value, int width, int decimals);
+/// A CSV field: quoted (with doubled quotes) only when it holds a comma, a quote or a newline.
+std::string csv_escape(const std::string& text);
+/// A CSV cell of a JSON value: empty for null, 10 significant digits for a float.
+std::string csv_value(const nlohmann::json& j);
+
+double seconds_since(std::chrono::steady_clock::time_point start);
+
+// --- Files ------------------------------------------------------------------------------------
+
+/// Writes `text` to `path` through a temporary file in the same folder and a rename, creating
+/// the folder; throws std::runtime_error naming the path and the system's reason.
+void write_file_atomically(const std::string& path, const std::string& text);
+/// The whole file; throws std::runtime_error naming the path and the system's reason.
+std::string read_file(const std::string& path);
+
+}  // namespace touchstone::studies

@@ -1,0 +1,317 @@
+// The MFS engine's settings table (see the header). Units: every setting here is a count, a
+// ratio or a switch; lengths and moduli of a study (tool radius, L, E) are study keys, read with
+// their units by the study readers.
+#include "mfs_settings_fields.hpp"
+
+#include <toml++/toml.h>
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <stdexcept>
+
+namespace touchstone::studies {
+namespace mfs = realtime::mfs;
+using nlohmann::json;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Names of the engine's enums, as spelled in configs, results.json and the resolved config.
+
+template <class E>
+struct Named {
+  const char* name;
+  E value;
+};
+
+const std::vector<Named<mfs::Layout>> layouts{{"radial_shells", mfs::Layout::radial_shells},
+                                              {"quasi_random", mfs::Layout::quasi_random},
+                                              {"lattice", mfs::Layout::lattice}};
+const std::vector<Named<mfs::OuterCondition>> outer_conditions{{"clamped", mfs::OuterCondition::clamped},
+                                                               {"traction_free", mfs::OuterCondition::traction_free}};
+const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
+    {"body_aware", mfs::ExteriorCondition::body_aware},
+    {"half_space", mfs::ExteriorCondition::half_space},
+    {"clamped", mfs::ExteriorCondition::clamped}};
+const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
+                                                        {"galerkin", mfs::Formulation::galerkin},
+                                                        {"collocation", mfs::Formulation::collocation}};
+const std::vector<Named<mfs::PatchCondition>> patch_conditions{{"frictionless", mfs::PatchCondition::frictionless},
+                                                               {"bonded", mfs::PatchCondition::bonded}};
+const std::vector<Named<mfs::Constraint>> constraints{{"penalty", mfs::Constraint::penalty},
+                                                      {"nitsche", mfs::Constraint::nitsche}};
+const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
+const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::quartic_spline},
+                                              {"cubic_spline", mfs::Weight::cubic_spline},
+                                              {"truncated_gaussian", mfs::Weight::truncated_gaussian}};
+const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverKind::dense_lu},
+                                                       {"sparse_lu", mfs::SolverKind::sparse_lu},
+                                                       {"gmres_ilut", mfs::SolverKind::gmres_ilut}};
+// "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
+const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
+                                                         {"reaction", mfs::ForceMethod::reaction},
+                                                         {"energy", mfs::ForceMethod::energy},
+                                                         {"paper_partition", mfs::ForceMethod::paper_partition}};
+
+template <class E>
+std::vector<std::string> names(const std::vector<Named<E>>& table) {
+  std::vector<std::string> result;
+  for (const auto& entry : table) result.push_back(entry.name);
+  return result;
+}
+
+template <class E>
+std::string name_of(const std::vector<Named<E>>& table, E value) {
+  for (const auto& entry : table)
+    if (entry.value == value) return entry.name;
+  return "unknown";
+}
+
+template <class E>
+E value_of(const std::vector<Named<E>>& table, const std::string& name) {
+  for (const auto& entry : table)
+    if (name == entry.name) return entry.value;
+  throw std::invalid_argument("unknown name '" + name + "'");  // unreachable after ConfigTable::choice
+}
+
+// ---------------------------------------------------------------------------------------------
+// Field makers: `get` is a generic lambda returning a reference to the member, so one accessor
+// serves the reader (non-const settings) and the value (const settings).
+
+using Settings = mfs::LocalModelSettings;
+
+struct Names {
+  const char* section;
+  const char* key;
+  const char* unit;
+  const char* doc;
+  const char* params_key = "";  ///< "" → derived (the key, or section_key when it repeats)
+};
+
+template <class Get>
+SettingField integer(Names n, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key](ConfigTable& t, Settings& s) { get(s) = read_int(t, key, get(s)); },
+          [get](const Settings& s) { return json(get(s)); }};
+}
+
+template <class Get>
+SettingField real(Names n, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key](ConfigTable& t, Settings& s) { get(s) = t.number(key, get(s)); },
+          [get](const Settings& s) { return json(get(s)); }};
+}
+
+template <class Get>
+SettingField boolean(Names n, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key](ConfigTable& t, Settings& s) { get(s) = t.boolean(key, get(s)); },
+          [get](const Settings& s) { return json(get(s)); }};
+}
+
+template <class E, class Get>
+SettingField choice(Names n, const std::vector<Named<E>>& choices, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key, &choices](ConfigTable& t, Settings& s) {
+            get(s) = value_of(choices, t.choice(key, names(choices), name_of(choices, get(s))));
+          },
+          [get, &choices](const Settings& s) { return json(name_of(choices, get(s))); }};
+}
+
+std::vector<SettingField> make_fields() {
+  std::vector<SettingField> f;
+  // Top level. paper_mode picks every other default, so the study readers read it before the
+  // table too; here it is read again (same value) so that the table consumes every key it writes.
+  f.push_back(boolean({"", "paper_mode", "", "the paper's model: one tool-tip node, linear basis, eqs. 7-9"},
+                      [](auto& s) -> auto& { return s.paper_mode; }));
+  SettingField formulation = choice({"", "formulation", "", "enriched (default), galerkin or collocation (the paper's)"},
+                                    formulations, [](auto& s) -> auto& { return s.formulation; });
+  // The formulation picks the haptic method's default and, for the weak forms, one point per node.
+  formulation.read = [](ConfigTable& t, Settings& s) {
+    s.formulation = value_of(formulations, t.choice("formulation", names(formulations), name_of(formulations, s.formulation)));
+    s.force.haptic_method = mfs::default_haptic_method(s.formulation, s.paper_mode);
+    if (s.formulation == mfs::Formulation::galerkin) s.sprinkling.oversampling = 1;
+  };
+  f.push_back(formulation);
+
+  f.push_back(real({"galerkin", "penalty_factor", "", "penalty of u = 0 on clamped surfaces, times E / h"},
+                   [](auto& s) -> auto& { return s.galerkin.penalty_factor; }));
+  f.push_back(choice({"galerkin", "constraint", "", "penalty or nitsche"}, constraints,
+                     [](auto& s) -> auto& { return s.galerkin.constraint; }));
+
+  f.push_back(choice({"enriched", "exterior", "", "body_aware (organ atlas), half_space or clamped"}, exterior_conditions,
+                     [](auto& s) -> auto& { return s.enriched.exterior; }));
+  f.push_back(integer({"enriched", "support_neighbours", "nodes", "support radius: distance to this nearest node"},
+                      [](auto& s) -> auto& { return s.enriched.support_neighbours; }));
+  f.push_back(integer({"enriched", "min_point_neighbours", "nodes", "nodes every quadrature point must see"},
+                      [](auto& s) -> auto& { return s.enriched.min_point_neighbours; }));
+  f.push_back(integer({"enriched", "volume_radial_points", "points", "MLS-MLS volume quadrature, radial (N <= 40)"},
+                      [](auto& s) -> auto& { return s.enriched.volume_radial_points; }));
+  f.push_back(integer({"enriched", "volume_polar_points", "points", "MLS-MLS volume quadrature, polar (N <= 40)"},
+                      [](auto& s) -> auto& { return s.enriched.volume_polar_points; }));
+  f.push_back(integer({"enriched", "volume_azimuth_points", "points", "MLS-MLS volume quadrature, azimuthal (N <= 40)"},
+                      [](auto& s) -> auto& { return s.enriched.volume_azimuth_points; }));
+  f.push_back(integer({"enriched", "patch_radial_points", "points", "patch quadrature, radial (r = a sin t)"},
+                      [](auto& s) -> auto& { return s.enriched.patch_radial_points; }));
+  f.push_back(integer({"enriched", "patch_angular_points", "points", "patch quadrature, angular"},
+                      [](auto& s) -> auto& { return s.enriched.patch_angular_points; }));
+  f.push_back(integer({"enriched", "free_radial_points", "points", "free-surface quadrature, radial (graded to the rim)"},
+                      [](auto& s) -> auto& { return s.enriched.free_radial_points; }));
+  f.push_back(integer({"enriched", "free_azimuth_points", "points", "free-surface quadrature, azimuthal"},
+                      [](auto& s) -> auto& { return s.enriched.free_azimuth_points; }));
+  f.push_back(integer({"enriched", "cut_polar_points", "points", "cut-sphere quadrature, polar (N <= 40)"},
+                      [](auto& s) -> auto& { return s.enriched.cut_polar_points; }));
+  f.push_back(integer({"enriched", "cut_azimuth_points", "points", "cut-sphere quadrature, azimuthal (N <= 40)"},
+                      [](auto& s) -> auto& { return s.enriched.cut_azimuth_points; }));
+  f.push_back(integer({"enriched", "cut_multiplier_degree", "", "polynomial degree of the cut's multipliers (-1: from N)"},
+                      [](auto& s) -> auto& { return s.enriched.cut_multiplier_degree; }));
+
+  f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,
+                     [](auto& s) -> auto& { return s.sprinkling.layout; }));
+  f.push_back(integer({"sprinkling", "ring_nodes", "nodes", "nodes on the ring around the patch rim"},
+                      [](auto& s) -> auto& { return s.sprinkling.ring_nodes; }));
+  f.push_back(real({"sprinkling", "radius_factor", "node spacings", "sphere radius of an interior node"},
+                   [](auto& s) -> auto& { return s.sprinkling.radius_factor; }));
+  f.push_back(real({"sprinkling", "boundary_radius_factor", "node spacings", "sphere radius of a boundary node"},
+                   [](auto& s) -> auto& { return s.sprinkling.boundary_radius_factor; }));
+  f.push_back(choice({"sprinkling", "outer", "", "the cut sphere: clamped or traction_free"}, outer_conditions,
+                     [](auto& s) -> auto& { return s.sprinkling.outer; }));
+  f.push_back(real({"sprinkling", "oversampling", "points per node", "collocation points per node (least squares)"},
+                   [](auto& s) -> auto& { return s.sprinkling.oversampling; }));
+  f.push_back(boolean({"sprinkling", "tip_node_only", "", "the tool acts on one tip node (the paper's point tool)"},
+                      [](auto& s) -> auto& { return s.sprinkling.tip_node_only; }));
+  f.push_back({"sprinkling", "seed", "", "", "seed of the quasi-random layouts (>= 0)",
+               [](ConfigTable& t, Settings& s) {
+                 const std::int64_t seed = t.integer("seed", static_cast<std::int64_t>(s.sprinkling.seed));
+                 if (seed < 0) throw ConfigError(t.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
+                 s.sprinkling.seed = static_cast<std::uint64_t>(seed);
+               },
+               [](const Settings& s) { return json(static_cast<std::int64_t>(s.sprinkling.seed)); }});
+
+  f.push_back(boolean({"collocation", "scale_rows", "", "scale each collocation row to unit norm"},
+                      [](auto& s) -> auto& { return s.collocation.scale_rows; }));
+  f.push_back(real({"collocation", "neumann_stabilization", "", "finite-increment stabilisation of traction rows"},
+                   [](auto& s) -> auto& { return s.collocation.neumann_stabilization; }));
+  f.push_back(real({"collocation", "boundary_row_weight", "", "weight of boundary rows in least squares"},
+                   [](auto& s) -> auto& { return s.collocation.boundary_row_weight; }));
+
+  f.push_back(choice({"mls", "basis", "", "linear or quadratic"}, bases, [](auto& s) -> auto& { return s.collocation.mls.basis; }));
+  f.push_back(choice({"mls", "weight", "", "quartic_spline, cubic_spline or truncated_gaussian"}, weights,
+                     [](auto& s) -> auto& { return s.collocation.mls.weight; }));
+  f.push_back(real({"mls", "min_rcond", "", "moment-matrix rcond below which supports grow", "min_rcond_threshold"},
+                   [](auto& s) -> auto& { return s.collocation.mls.min_rcond; }));
+  f.push_back(real({"mls", "max_support_scale", "", "largest support growth before a point fails"},
+                   [](auto& s) -> auto& { return s.collocation.mls.max_support_scale; }));
+
+  f.push_back(choice({"solver", "kind", "", "dense_lu, sparse_lu or gmres_ilut", "solver"}, solver_kinds,
+                     [](auto& s) -> auto& { return s.solver.kind; }));
+  f.push_back(real({"solver", "gmres_tolerance", "", "GMRES relative residual"}, [](auto& s) -> auto& { return s.solver.gmres_tolerance; }));
+  f.push_back(integer({"solver", "gmres_restart", "iterations", "GMRES restart"}, [](auto& s) -> auto& { return s.solver.gmres_restart; }));
+  f.push_back(integer({"solver", "gmres_max_iterations", "iterations", "GMRES iteration limit"},
+                      [](auto& s) -> auto& { return s.solver.gmres_max_iterations; }));
+  f.push_back(real({"solver", "max_relative_residual", "", "largest accepted relative residual of a solve"},
+                   [](auto& s) -> auto& { return s.solver.max_relative_residual; }));
+  f.push_back(real({"solver", "ilut_drop_tolerance", "", "ILUT drop tolerance"}, [](auto& s) -> auto& { return s.solver.ilut_drop_tolerance; }));
+  f.push_back(integer({"solver", "ilut_fill_factor", "", "ILUT fill factor"}, [](auto& s) -> auto& { return s.solver.ilut_fill_factor; }));
+
+  f.push_back(integer({"force", "patch_radial_points", "points", "force quadrature on the patch, radial"},
+                      [](auto& s) -> auto& { return s.force.patch_radial_points; }));
+  f.push_back(integer({"force", "patch_angular_points", "points", "force quadrature on the patch, angular"},
+                      [](auto& s) -> auto& { return s.force.patch_angular_points; }));
+  f.push_back(integer({"force", "cut_polar_points", "points", "quadrature of the cut sphere, polar"},
+                      [](auto& s) -> auto& { return s.force.cut_polar_points; }));
+  f.push_back(integer({"force", "cut_azimuth_points", "points", "quadrature of the cut sphere, azimuthal"},
+                      [](auto& s) -> auto& { return s.force.cut_azimuth_points; }));
+  f.push_back(integer({"force", "volume_radial_points", "points", "Galerkin volume quadrature, radial"},
+                      [](auto& s) -> auto& { return s.force.volume_radial_points; }));
+  f.push_back(integer({"force", "volume_polar_points", "points", "Galerkin volume quadrature, polar"},
+                      [](auto& s) -> auto& { return s.force.volume_polar_points; }));
+  f.push_back(integer({"force", "volume_azimuth_points", "points", "Galerkin volume quadrature, azimuthal"},
+                      [](auto& s) -> auto& { return s.force.volume_azimuth_points; }));
+  f.push_back(real({"force", "extraction_inner_tool_radii", "tool radii", "inner radius of the energy-extraction shell"},
+                   [](auto& s) -> auto& { return s.force.extraction_inner_tool_radii; }));
+  f.push_back(real({"force", "extraction_outer_local_radii", "local radii", "outer radius of the energy-extraction shell"},
+                   [](auto& s) -> auto& { return s.force.extraction_outer_local_radii; }));
+  f.push_back(integer({"force", "extraction_radial_points", "points", "extraction-shell quadrature, radial"},
+                      [](auto& s) -> auto& { return s.force.extraction_radial_points; }));
+  f.push_back(integer({"force", "extraction_polar_points", "points", "extraction-shell quadrature, polar"},
+                      [](auto& s) -> auto& { return s.force.extraction_polar_points; }));
+  f.push_back(integer({"force", "extraction_azimuth_points", "points", "extraction-shell quadrature, azimuthal"},
+                      [](auto& s) -> auto& { return s.force.extraction_azimuth_points; }));
+  // Unset, the haptic method follows the formulation (set when the formulation is read).
+  f.push_back(choice({"force", "haptic_method", "", "the force the haptic loop uses (K_t from it)"}, force_methods,
+                     [](auto& s) -> auto& { return s.force.haptic_method; }));
+  f.push_back(boolean({"force", "reaction", "", "compute the reaction force"}, [](auto& s) -> auto& { return s.force.reaction; }));
+  f.push_back(boolean({"force", "energy", "", "compute the energy force"}, [](auto& s) -> auto& { return s.force.energy; }));
+  f.push_back(boolean({"force", "traction", "", "compute the traction-integral force"}, [](auto& s) -> auto& { return s.force.traction; }));
+
+  // params keys: the key itself where it is unique over the table, else section_key.
+  std::map<std::string, int> uses;
+  for (const auto& field : f) ++uses[field.key];
+  std::set<std::string> taken;
+  for (auto& field : f) {
+    if (field.params_key.empty()) field.params_key = uses[field.key] == 1 ? field.key : field.section + "_" + field.key;
+    if (!taken.insert(field.params_key).second)
+      throw std::logic_error("MFS settings table: params key '" + field.params_key + "' used twice");
+  }
+  return f;
+}
+
+}  // namespace
+
+const std::vector<SettingField>& local_model_fields() {
+  static const std::vector<SettingField> fields = make_fields();
+  return fields;
+}
+
+void read_local_model_settings(ConfigTable& config, Settings& settings) {
+  // Each section's table once, in the table's order (a section's fields are contiguous).
+  std::string current = "\x01";
+  ConfigTable* table = nullptr;
+  std::optional<ConfigTable> section;
+  for (const SettingField& field : local_model_fields()) {
+    if (!field.read) continue;
+    if (field.section != current) {
+      current = field.section;
+      if (current.empty()) {
+        table = &config;
+      } else {
+        section.emplace(config.table(current));
+        table = &*section;
+      }
+    }
+    field.read(*table, settings);
+  }
+}
+
+void write_local_model_settings(toml::table& document, const Settings& settings) {
+  for (const SettingField& field : local_model_fields()) {
+    const json value = field.value(settings);
+    toml::table* target = &document;
+    if (!field.section.empty()) {
+      if (!document.contains(field.section)) document.insert(field.section, toml::table{});
+      target = document[field.section].as_table();
+    }
+    if (value.is_boolean()) target->insert_or_assign(field.key, value.get<bool>());
+    else if (value.is_number_integer()) target->insert_or_assign(field.key, value.get<std::int64_t>());
+    else if (value.is_number()) target->insert_or_assign(field.key, value.get<double>());
+    else target->insert_or_assign(field.key, value.get<std::string>());
+  }
+}
+
+void add_local_model_params(json& params, const Settings& settings) {
+  for (const SettingField& field : local_model_fields()) params[field.params_key] = field.value(settings);
+}
+
+std::vector<std::string> patch_condition_names() { return names(patch_conditions); }
+std::string patch_condition_name(mfs::PatchCondition condition) { return name_of(patch_conditions, condition); }
+mfs::PatchCondition patch_condition_from_name(const std::string& name) { return value_of(patch_conditions, name); }
+std::string exterior_name(mfs::ExteriorCondition exterior) { return name_of(exterior_conditions, exterior); }
+
+}  // namespace touchstone::studies

@@ -1,0 +1,108 @@
+// The targets of `touchstone study` are data in, data out: from the cases' errors and times to
+// each target's measured value, whether it is met and by how much it is missed. Hand-made cases
+// with round numbers make every expected value obvious.
+#include "comparison/comparison_parts.hpp"
+
+#include <gtest/gtest.h>
+
+namespace touchstone::studies::comparison {
+namespace {
+
+using nlohmann::json;
+
+json mfs_case(const std::string& id, int n, double force_rel, double disp_rel, double total_s) {
+  return {{"id", id},      {"model", "mfs"}, {"status", "ok"}, {"problem", "base"}, {"series", "enriched"},
+          {"part", "mfs"}, {"params", {{"node_count_requested", n}, {"node_count", n}}},
+          {"error", {{"force_rel", force_rel}, {"disp_rel_l2", disp_rel}}},
+          {"time_s", {{"total", total_s}}}};
+}
+
+json fem_level(const std::string& id, int refinement, double force_rel, double total_s, double dofs) {
+  return {{"id", id},         {"model", "fem"}, {"status", "ok"}, {"part", "reference"},
+          {"params", {{"refinement", refinement}}},
+          {"error", {{"force_rel", force_rel}}}, {"time_s", {{"total", total_s}}}, {"mesh", {{"dofs", dofs}}}};
+}
+
+class Targets : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    problem.name = "base";
+    problem.problem.benchmark = meshes::Benchmark::B3;
+    MfsSeries series;
+    series.name = "enriched";
+    series.engine_default = true;
+    problem.series.push_back(series);
+    ProblemRun r;
+    r.sp = &problem;
+    r.d = Eigen::Vector3d(0, 0, -1);
+    r.reference_part = "reference";
+    r.runs_reference = true;
+    r.reference.id = "reference/b3-reference";
+    r.reference.uncertainty_rel = 0.002;
+    r.reference.summary = {{"study", "b3_reference"}};
+    runs.push_back(r);
+  }
+  const json* find(const json& list, const std::string& id) {
+    for (const auto& t : list)
+      if (t.at("id") == id) return &t;
+    return nullptr;
+  }
+  StudyProblem problem;
+  std::vector<ProblemRun> runs;
+};
+
+TEST_F(Targets, ForceSpeedAndReferenceTargetsAreScoredFromTheCases) {
+  const json cases = json::array({mfs_case("MFS-enriched-N34", 34, 0.004, 0.01, 0.004),
+                                  mfs_case("MFS-enriched-N60", 60, 0.03, 0.03, 0.010),
+                                  fem_level("reference/L0", 0, 0.04, 2.0, 1e4),
+                                  fem_level("reference/L1", 1, 0.002, 50.0, 8e4)});
+  const json list = targets(cases, json::object(), false, runs);
+
+  const json* reference = find(list, "fem_reference_uncertainty");
+  ASSERT_NE(reference, nullptr);
+  EXPECT_EQ(reference->at("met"), true);
+  EXPECT_DOUBLE_EQ(reference->at("measured").get<double>(), 0.002);
+
+  // The best force error at N <= 60 is N = 34's 0.4 %: within 5 %, and within 1 % for N <= 300.
+  const json* n60 = find(list, "mfs_force_n60:enriched");
+  ASSERT_NE(n60, nullptr);
+  EXPECT_DOUBLE_EQ(n60->at("measured").get<double>(), 0.004);
+  EXPECT_EQ(n60->at("basis"), "MFS-enriched-N34");
+  EXPECT_EQ(find(list, "mfs_force_n300:enriched")->at("met"), true);
+
+  // 5 %: the fastest MFS within it (N = 34, 4 ms) against the cheapest FEM level within it (L0,
+  // 4 % in 2 s): 2 / 0.004 = 500x, the 10^4 target missed.
+  const json* speed = find(list, "speedup_at_5_percent");
+  ASSERT_NE(speed, nullptr);
+  EXPECT_DOUBLE_EQ(speed->at("measured").get<double>(), 2.0 / 0.004);
+  EXPECT_EQ(speed->at("met"), false);
+  EXPECT_EQ(speed->at("shortfall"), "missed: 500x");
+
+  // At the default model's own error (0.4 %) only L1 (0.2 %) is as accurate: 50 / 0.004 = 12,500x, met.
+  const json* own = find(list, "speedup_at_default_error");
+  ASSERT_NE(own, nullptr);
+  EXPECT_DOUBLE_EQ(own->at("measured").get<double>(), 50.0 / 0.004);
+  EXPECT_EQ(own->at("met"), true);
+  EXPECT_EQ(own->at("lower_bound"), false);
+}
+
+TEST_F(Targets, AMissedForceTargetSaysByHowMuchAndWhereTheSeriesWouldReachIt) {
+  // Errors falling as N^-1 from 40 % at N = 34: the 5 % target is missed at N = 60 (22.7 %), and
+  // the fitted line reaches it at N = 34 · 0.40 / 0.05 = 272.
+  const json cases = json::array({mfs_case("MFS-enriched-N34", 34, 0.40, 0.5, 0.005),
+                                  mfs_case("MFS-enriched-N51", 51, 0.40 * 34 / 51, 0.5, 0.006),
+                                  mfs_case("MFS-enriched-N60", 60, 0.40 * 34 / 60, 0.5, 0.007)});
+  const json list = targets(cases, json::object(), false, runs);
+  const json* n60 = find(list, "mfs_force_n60:enriched");
+  ASSERT_NE(n60, nullptr);
+  EXPECT_EQ(n60->at("met"), false);
+  EXPECT_NEAR(n60->at("measured").get<double>(), 0.40 * 34 / 60, 1e-15);
+  EXPECT_NEAR(n60->at("convergence_in_n").at("order").get<double>(), -1.0, 1e-9);
+  EXPECT_NEAR(n60->at("convergence_in_n").at("n_at_target").get<double>(), 272.0, 1e-6);
+  EXPECT_NE(n60->at("shortfall").get<std::string>().find("N ~ 272"), std::string::npos) << n60->at("shortfall");
+  // No FEM level: the speed-up is not measured, and says why.
+  EXPECT_TRUE(find(list, "speedup_at_5_percent")->at("met").is_null());
+}
+
+}  // namespace
+}  // namespace touchstone::studies::comparison
