@@ -1,4 +1,4 @@
-"""`python3 -m touchstone_reports KIND OUTPUT_DIR [--no-plots] [--plot-note TEXT]`
+"""`python3 -m touchstone_reports KIND OUTPUT_DIR [--no-plots] [--plot-note TEXT] [--quiet]`
 
 Writes OUTPUT_DIR/report.md from the JSON in OUTPUT_DIR (results.json; summary.json for `sim`).
 Exit status: 0 written, 1 usage error, 2 missing or unreadable input or missing matplotlib (the
@@ -20,6 +20,7 @@ def main(argv=None):
                         help="collision: write report.md without plots (no matplotlib needed)")
     parser.add_argument("--plot-note", default=None,
                         help="collision with --no-plots: why there are no plots (printed in the report)")
+    parser.add_argument("--quiet", action="store_true", help="print only errors (not the report's path)")
     args = parser.parse_args(argv)
     try:
         if args.kind == "study":
@@ -40,7 +41,8 @@ def main(argv=None):
     except ReportError as error:
         sys.stderr.write("touchstone_reports %s: %s\n" % (args.kind, error))
         return error.status
-    print("report: %s" % path)
+    if not args.quiet:
+        print("report: %s" % path)
     return 0
 
 

@@ -379,11 +379,12 @@ std::string csv_value(const json& value) {
 void write_report(const CollisionRunOptions& options) {
   ReportLaunchOptions launch;
   launch.python = options.python;
-  if (!options.plots) launch.arguments = {"--no-plots"};
+  if (options.quiet) launch.arguments.push_back("--quiet");
+  if (!options.plots) launch.arguments.push_back("--no-plots");
   ReportStatus status = run_report("collision", options.output_directory, launch);
   if (!status.ok() && options.plots) {
     std::fprintf(stderr, "collision report: %s; writing it without plots\n", status.message.c_str());
-    launch.arguments = {"--no-plots", "--plot-note", "the plot step failed: " + status.message};
+    launch.arguments.insert(launch.arguments.end(), {"--no-plots", "--plot-note", "the plot step failed: " + status.message});
     status = run_report("collision", options.output_directory, launch);
   }
   if (!status.ok())
