@@ -25,7 +25,7 @@ def render(summary):
         rows.append([name, loop.get("ticks", 0), microseconds(loop.get("lateness_p99_s")),
                      microseconds(loop.get("lateness_max_s")), pct(loop.get("late_fraction"), 3),
                      microseconds(loop.get("work_p99_s"))])
-    w.extend(table(["loop", "ticks", "lateness p99", "lateness max", "late ticks", "work p99"], rows,
+    w.extend(table(["loop", "ticks", "lateness p99", "lateness max", "late share", "work p99"], rows,
                    ["l", "r", "r", "r", "r", "r"]))
     w("")
     forces = summary.get("forces") or {}
