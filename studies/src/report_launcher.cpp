@@ -15,6 +15,11 @@
 
 extern char** environ;
 
+// The package's folder under the install prefix (studies/CMakeLists.txt sets it from GNUInstallDirs).
+#ifndef TOUCHSTONE_REPORTS_INSTALL_SUBDIR
+#define TOUCHSTONE_REPORTS_INSTALL_SUBDIR "share/touchstone/reports"
+#endif
+
 namespace touchstone::studies {
 namespace fs = std::filesystem;
 
