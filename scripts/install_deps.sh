@@ -19,7 +19,7 @@ packages=(
   # configuration, command line, JSON
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   # tests, benchmarks, plots
-  libgtest-dev libgmock-dev libbenchmark-dev python3 python3-matplotlib python3-vtk9
+  libgtest-dev libgmock-dev libbenchmark-dev python3 python3-matplotlib python3-jsonschema python3-vtk9
 )
 
 missing=()

@@ -43,7 +43,7 @@ void add_collision_command(CLI::App& program, std::vector<Command>& commands) {
       ->required()->check(CLI::ExistingFile);
   collision_cmd->add_option("--out", o->output, "Output folder (default: output/<study name>)");
   collision_cmd->add_flag("--quiet", o->quiet, "Print only errors");
-  collision_cmd->add_flag("--no-plots", o->no_plots, "No PNG plots (reports/collision_plots.py, matplotlib)");
+  collision_cmd->add_flag("--no-plots", o->no_plots, "No PNG plots (the collision report then needs no matplotlib)");
   commands.push_back({collision_cmd, [o] { return run_collision(*o); }});
 }
 

@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include <functional>
+#include <string>
 #include <vector>
 
 namespace touchstone::app {
@@ -24,6 +25,10 @@ struct Command {
   const CLI::App* subcommand = nullptr;  ///< parsed() when the command line names it
   std::function<int()> run;              ///< returns the exit status; throws on error
 };
+
+/// The short report of a subcommand's output folder (report.md from the reports package). A
+/// report that cannot be written is a note on stderr, not an error: the data are written.
+void write_short_report(const std::string& kind, const std::string& output_directory, bool quiet);
 
 void add_mesh_command(CLI::App& program, std::vector<Command>& commands);
 void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);

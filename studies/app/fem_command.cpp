@@ -27,7 +27,10 @@ int run_fem(FemOptions o, ProgramArguments arguments) {
   const studies::ReferenceStudy study = studies::read_reference_study(config);
   if (o.run.output_directory.empty()) o.run.output_directory = "output/" + study.name;
   studies::run_reference_study(study, o.run);
-  if (fem::MpiSession::rank() == 0) std::printf("\nresults: %s/results.json\n", o.run.output_directory.c_str());
+  if (fem::MpiSession::rank() == 0) {
+    std::printf("\nresults: %s/results.json\n", o.run.output_directory.c_str());
+    write_short_report("fem", o.run.output_directory, o.run.quiet);
+  }
   return 0;
 }
 }  // namespace

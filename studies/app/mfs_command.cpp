@@ -25,6 +25,7 @@ int run_mfs(MfsOptions o) {
   if (o.run.output_directory.empty()) o.run.output_directory = "output/" + study.name;
   const nlohmann::json results = studies::run_mfs_study(study, o.run);
   std::printf("\nresults: %s/results.json\n", o.run.output_directory.c_str());
+  write_short_report("mfs", o.run.output_directory, o.run.quiet);
   // A run whose every case failed has no result to use: say so in the exit status.
   for (const auto& c : results.at("cases"))
     if (c.at("status") == "ok") return 0;

@@ -53,6 +53,7 @@ int run_sim(const SimCommandOptions& o) {
   options.screenshot_path = o.screenshot;
   options.stop = &interrupted;
   const nlohmann::json summary = studies::run_sim(scene, options);
+  write_short_report("sim", o.output.empty() ? scene.output_directory : o.output, false);
   // A run in which every model build failed felt no tissue at all: an error, not a result.
   const auto& work = summary.at("work");
   if (work.at("model_builds").get<long long>() > 0 &&

@@ -2,9 +2,19 @@
 // each.
 #include "commands.hpp"
 
+#include "touchstone/studies/report_launcher.hpp"
+
 #include <cstdio>
 #include <exception>
 #include <string>
+
+void touchstone::app::write_short_report(const std::string& kind, const std::string& output_directory, bool quiet) {
+  studies::ReportLaunchOptions options;
+  if (quiet) options.arguments.push_back("--quiet");
+  std::fflush(stdout);
+  const studies::ReportStatus status = studies::run_report(kind, output_directory, options);
+  if (!status.ok()) std::fprintf(stderr, "touchstone: note: no report.md: %s\n", status.message.c_str());
+}
 
 int main(int argc, char** argv) {
   using namespace touchstone::app;

@@ -1,10 +1,12 @@
 // `touchstone collision`: TOML → CollisionStudy, the three measurements (Table 1 replica,
-// tremor, per-cycle cost), results.json (the study contract), CSV tables and report.md.
+// tremor, per-cycle cost), results.json (the study contract) and CSV tables; report.md and the
+// plots are the reports package's (report_launcher.hpp).
 #include "touchstone/studies/collision_study.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
+#include "touchstone/studies/report_launcher.hpp"
 
 #include <toml++/toml.h>
 
@@ -341,22 +343,7 @@ json contract_qoi() { return {{"force_N", nullptr}, {"stiffness_N_per_m", nullpt
 json contract_error() { return {{"force_rel", nullptr}, {"disp_rel_l2", nullptr}, {"disp_max_m", nullptr}}; }
 
 // ---------------------------------------------------------------------------------------------
-// The report.
-
-std::string cell(const json& value, const char* format) {
-  if (value.is_null()) return "–";
-  return printf_string(format, value.get<double>());
-}
-
-std::string mean_max_cell(const json& mm, const char* mean_format = "%.1f") {
-  if (mm.at("mean").is_null()) return "–";
-  return cell(mm.at("mean"), mean_format) + " / " + cell(mm.at("max"), "%.0f");
-}
-
-std::string millimetres_cell(const json& metres) {
-  if (metres.is_null()) return "miss";
-  return printf_string("%.3f", 1e3 * metres.get<double>());
-}
+// CSV tables.
 
 std::string write_csv(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
   std::ostringstream out;
@@ -369,184 +356,22 @@ std::string write_csv(const std::vector<std::string>& header, const std::vector<
   return out.str();
 }
 
-/// Runs the plot script on the output folder; "" on success, else why not.
-std::string make_plots(const CollisionRunOptions& options) {
-  std::string script = options.plot_script;
-  if (script.empty()) {
-#ifdef TOUCHSTONE_SOURCE_DIR
-    script = std::string(TOUCHSTONE_SOURCE_DIR) + "/reports/collision_plots.py";
-#else
-    script = "reports/collision_plots.py";
-#endif
+/// report.md and the plots by the reports package. Plots asked for but not made (no matplotlib):
+/// the report is written again without them and says why. Throws when no report is written.
+void write_report(const CollisionRunOptions& options) {
+  ReportLaunchOptions launch;
+  launch.python = options.python;
+  if (options.quiet) launch.arguments.push_back("--quiet");
+  if (!options.plots) launch.arguments.push_back("--no-plots");
+  ReportStatus status = run_report("collision", options.output_directory, launch);
+  if (status.exit_status > 0 && options.plots) {  // the package ran and failed: retry without plots
+    std::fprintf(stderr, "collision report: %s; writing it without plots\n", status.message.c_str());
+    launch.arguments.insert(launch.arguments.end(), {"--no-plots", "--plot-note", "the plot step failed: " + status.message});
+    status = run_report("collision", options.output_directory, launch);
   }
-  if (!fs::exists(script)) return "plot script not found: " + script;
-  const auto quote = [](const std::string& text) {
-    std::string quoted = "'";
-    for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return quoted + "'";
-  };
-  const std::string command = quote(options.python) + " " + quote(script) + " " + quote(options.output_directory);
-  std::fflush(stdout);
-  const int status = std::system(command.c_str());
-  return status == 0 ? "" : "`" + command + "` failed (status " + std::to_string(status) + ")";
-}
-
-std::string report_markdown(const json& document, const CollisionStudy& study, const std::string& plot_note) {
-  std::ostringstream md;
-  md << "# " << study.name << ": collision detection and prediction\n\n"
-     << "Written by `touchstone collision` (git " << document["provenance"].value("git", "?") << ", "
-     << document["provenance"].value("build_type", "?") << ", " << document["provenance"].value("compiler", "?")
-     << "; machine: " << document["provenance"].value("machine", "?") << "). Numbers are those of "
-     << "`results.json`; CSV: `table1.csv`, `tremor.csv`, `cycle_cost.csv`. Run time "
-     << printf_string("%.1f", document["time_s"]["total"].get<double>()) << " s.\n\n";
-
-  md << "## Organs\n\n| organ | triangles | vertices | mesh size [mm] | meshing [s] |\n|---|---:|---:|---:|---:|\n";
-  for (const json& o : document["organs"])
-    md << "| " << o["id"].get<std::string>() << " | " << o["triangles"] << " | " << o["vertices"] << " | "
-       << printf_string("%.2f", 1e3 * o["mesh_size_m"].get<double>()) << " | " << printf_string("%.2f", o["mesh_s"].get<double>())
-       << " |\n";
-
-  md << "\n## Table 1 replica: overlap tests of the query that finds the first contact\n\n"
-     << study.trajectories << " approach trajectories per organ (tremor "
-     << printf_string("%.2f", 1e3 * study.approach.tremor.rms_per_axis_m)
-     << " mm RMS per axis); full detection tests the tip's motion segment every cycle, and the count is that of "
-     << "the contact cycle's query, mean / max over the trajectories. *Nodes entered* = (box tests − 1) / 2, the "
-     << "levels a single root-to-leaf path descends in a binary tree without entry grid — the count the paper "
-     << "reports (one test per level); *binary levels* = the tree's depth D (a single path: D − 1 nodes entered, "
-     << "2D − 1 box tests). With prediction a free cycle costs 1 distance + 1 comparison and no overlap test; the "
-     << "last column gives the share of the cycles before contact that were free or deferred (the rest: corridor "
-     << "advances, re-predictions and full detection near the surface, see *per-cycle cost*).\n\n";
-  md << "| organ | triangles | binary levels D | single path D − 1 | paper | OBB nodes entered | OBB box tests | "
-        "OBB triangle tests | AABB nodes entered | AABB box tests | AABB triangle tests | prediction per free cycle |\n"
-     << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
-  for (const json& o : document["organs"]) {
-    const json* obb = nullptr;
-    const json* aabb = nullptr;
-    for (const json& r : document["table1"])
-      if (r["organ"] == o["id"] && r["tree"] == "binary") (r["bounding_volume"] == "obb" ? obb : aabb) = &r;
-    if (!obb && !aabb) continue;
-    const json& any = obb ? *obb : *aabb;
-    const auto part = [](const json* r, const char* key) { return r ? mean_max_cell((*r)[key]) : std::string("–"); };
-    // The prediction's measured cost per free cycle (any tree: it makes no surface query there).
-    std::string predicted = "–";
-    for (const json& c : document["cycle_cost"])
-      if (c["organ"] == o["id"] && c["mode"] == "prediction") {
-        const json& e = c["prediction"];
-        predicted = (e["free_cycle_distances_min"] == 1 && e["free_cycle_distances_max"] == 1
-                         ? std::string("1 distance + 1 comparison")
-                         : e["free_cycle_distances_min"].dump() + "–" + e["free_cycle_distances_max"].dump() + " distances") +
-                    " (" + printf_string("%.1f %%", 100 * e["cheap_fraction_before_contact"].get<double>()) +
-                    " of approach cycles)";
-        break;
-      }
-    md << "| " << o["id"].get<std::string>() << " | " << o["triangles"] << " | " << any["binary_depth"] << " | "
-       << any["binary_depth"].get<int>() - 1 << " | " << (any["paper_overlap_tests"].is_null() ? "–" : any["paper_overlap_tests"].dump()) << " | "
-       << part(obb, "nodes_entered") << " | " << part(obb, "box_tests") << " | " << part(obb, "triangle_tests") << " | "
-       << part(aabb, "nodes_entered") << " | " << part(aabb, "box_tests") << " | " << part(aabb, "triangle_tests")
-       << " | " << predicted << " |\n";
-  }
-  md << "\nHow to read it: the paper's numbers are about log2 n, one test per level of a balanced binary tree — "
-     << "the *single path* column. The contact cycle's segment crosses the surface, where the boxes of neighbouring "
-     << "triangles overlap, so it enters both children at some levels: *nodes entered* counts every inner node "
-     << "the traversal entered and is the measured cost; box tests count both children's boxes per entered node "
-     << "plus the root's.\n";
-  const auto plot = [&](const char* file, const char* caption) {
-    if (fs::exists(fs::path(document["output_directory"].get<std::string>()) / file))
-      md << "\n![" << caption << "](" << file << ")\n";
-  };
-  if (!plot_note.empty()) md << "\n(No plots: " << plot_note << ".)\n";
-  plot("table1_overlap_tests.png", "Table 1 replica: nodes entered against the triangle count");
-  md << "\nEvery tree, with the time of the first-contact query alone (the least of three means over repeated passes, after a warm-up pass; "
-     << "the comparison with Embree on the same queries is `benchmarks/collision_benchmark` "
-     << "(`first_contact/...` against `first_contact_embree/...`): Embree is not linked into this program).\n\n"
-     << "| organ | tree | volume | depth | contacts | box tests | triangle tests | overlap tests | query [ns] | build [ms] |\n"
-     << "|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const json& r : document["table1"])
-    md << "| " << r["organ"].get<std::string>() << " | " << r["tree"].get<std::string>() << " | "
-       << r["bounding_volume"].get<std::string>() << " | " << r["depth"] << " | " << r["first_contacts"] << " | "
-       << mean_max_cell(r["box_tests"]) << " | " << mean_max_cell(r["triangle_tests"]) << " | "
-       << mean_max_cell(r["overlap_tests"]) << " | " << cell(r["query_time_ns"], "%.0f") << " | "
-       << cell(r["build_ms"], "%.1f") << " |\n";
-
-  md << "\n## Tremor: predicted-point error of the mean tool path (eq. 2)\n\n"
-     << "Organ " << document["tremor_organ"].get<std::string>() << "; " << study.tremor.trajectories
-     << " approaches per amplitude from ≥ " << printf_string("%.0f", 1e3 * study.tremor.start_distance_min_m)
-     << " mm; the prediction is made when the smooth hand is " << printf_string("%.1f", 1e3 * study.tremor.evaluate_at_m)
-     << " mm from the point it will touch; error = distance from the ray's hit to that point (a ray that misses the "
-     << "organ counts as an infinite error: *miss*). m = 1 at 1 kHz is eq. 1 (no filtering). Paper: > 5 mm without "
-     << "filtering, < 1 mm with it.\n\n"
-     << "| tremor RMS/axis [mm] | m | sampling [Hz] | window [ms] | median [mm] | p90 [mm] | max [mm] | misses |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const json& r : document["tremor"])
-    md << "| " << printf_string("%.2f", 1e3 * r["amplitude_m"].get<double>()) << " | " << r["window_samples"] << " | "
-       << printf_string("%.0f", r["sample_rate_hz"].get<double>()) << " | "
-       << printf_string("%.0f", 1e3 * r["window_s"].get<double>()) << " | " << millimetres_cell(r["error_m"]["median"])
-       << " | " << millimetres_cell(r["error_m"]["p90"]) << " | " << millimetres_cell(r["error_m"]["max"]) << " | "
-       << r["no_hit"] << " |\n";
-  plot("tremor_error.png", "Predicted-point error against the window");
-
-  md << "\n## Per-cycle cost over whole approach–contact–release runs\n\n"
-     << "Full detection: the tip's motion segment against the surface every cycle outside, an inside test in "
-     << "contact. Prediction: `CollisionPredictor` (m = " << study.prediction.window_samples << " every "
-     << study.prediction.sample_period_cycles << " cycles, straight-line range "
-     << printf_string("%.1f", 1e3 * study.prediction.straight_line_range_m)
-     << " mm); in contact it runs the same inside test. Phases from full detection: approach (before the first "
-     << "contact), contact, release (after it). Per cycle, means: distances (point–point: the predictor's ball "
-     << "checks), surface queries (segment, ray, closest point, inside), box and triangle tests; time per cycle "
-     << "in ns: median / mean* / p99, mean* = the mean of the fastest 99.9 % of the cycles (the machine is shared: "
-     << "the slowest are preemptions; means and maxima of all cycles are in `results.json`). Times include "
-     << "reading the clock, " << cell(document["timer_overhead_ns"], "%.0f") << " ns per cycle (an empty timed "
-     << "region, median).\n\n";
-  const auto cost_row = [&md](const json& full, const json& predicted, const std::string& phase, bool with_tree) {
-    const json& f = full["phases"][phase];
-    const json& p = predicted["phases"][phase];
-    md << "| " << full["organ"].get<std::string>() << " | ";
-    if (with_tree) md << full["tree"].get<std::string>() << " | " << full["bounding_volume"].get<std::string>() << " | ";
-    md << phase << " | " << f["cycles"] << " | " << cell(f["surface_queries_per_cycle"], "%.3f") << " | "
-       << cell(f["box_tests_per_cycle"], "%.2f") << " | " << cell(f["triangle_tests_per_cycle"], "%.2f") << " | "
-       << cell(f["time_ns"]["median"], "%.0f") << " / " << cell(f["time_ns"]["trimmed_mean"], "%.0f") << " / "
-       << cell(f["time_ns"]["p99"], "%.0f") << " | "
-       << cell(p["distances_per_cycle"], "%.3f") << " | " << cell(p["surface_queries_per_cycle"], "%.3f") << " | "
-       << cell(p["box_tests_per_cycle"], "%.2f") << " | " << cell(p["triangle_tests_per_cycle"], "%.2f") << " | "
-       << cell(p["time_ns"]["median"], "%.0f") << " / " << cell(p["time_ns"]["trimmed_mean"], "%.0f") << " / "
-       << cell(p["time_ns"]["p99"], "%.0f") << " |\n";
-  };
-  const std::string columns =
-      "cycles | full: queries | full: box tests | full: triangle tests | full: ns median / mean* / p99 | "
-      "pred.: distances | pred.: queries | pred.: box tests | pred.: triangle tests | pred.: ns median / mean* / p99 |\n";
-  const std::string alignment = "---:|---:|---:|---:|---|---:|---:|---:|---:|---|\n";
-  const json& cost = document["cycle_cost"];
-  // Rows come in pairs: full detection, then prediction, per case.
-  md << "Every tree: the approach and the whole run.\n\n| organ | tree | volume | phase | " << columns
-     << "|---|---|---|---|" << alignment;
-  for (std::size_t i = 0; i + 1 < cost.size(); i += 2)
-    for (const char* phase : {"approach", "all"}) cost_row(cost[i], cost[i + 1], phase, true);
-  const std::string detailed_tree = study.trees.size() > 1 ? study.trees[1].name : study.trees[0].name;
-  const std::string detailed_volume = volume_name(study.bounding_volumes.front());
-  md << "\nEvery phase, tree `" << detailed_tree << "`, " << detailed_volume << " (every tree in `cycle_cost.csv`).\n\n"
-     << "| organ | phase | " << columns << "|---|---|" << alignment;
-  for (std::size_t i = 0; i + 1 < cost.size(); i += 2)
-    if (cost[i]["tree"] == detailed_tree && cost[i]["bounding_volume"] == detailed_volume)
-      for (const char* phase : {"approach", "contact", "release", "all"}) cost_row(cost[i], cost[i + 1], phase, false);
-  plot("cycle_cost.png", "Box tests per cycle before contact, full detection and prediction");
-  md << "\nPrediction events (all trajectories of a case): misses and spurious contacts are counted against "
-     << "full detection on the same tip positions.\n\n"
-     << "| organ | tree | volume | free cycles | distances per free cycle (min–max) | cheap approach cycles | "
-        "predictions | re-predictions | closest-point queries | ray casts | full detections | contacts | misses | "
-        "spurious |\n"
-     << "|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const json& r : document["cycle_cost"]) {
-    if (r["mode"] != "prediction") continue;
-    const json& e = r["prediction"];
-    md << "| " << r["organ"].get<std::string>() << " | " << r["tree"].get<std::string>() << " | "
-       << r["bounding_volume"].get<std::string>() << " | " << e["free_cycles"] << " | " << e["free_cycle_distances_min"]
-       << "–" << e["free_cycle_distances_max"] << " | "
-       << printf_string("%.1f %%", 100 * e["cheap_fraction_before_contact"].get<double>()) << " | " << e["predictions"]
-       << " | " << e["repredictions"] << " | " << e["closest_point_queries"] << " | " << e["ray_casts"] << " | "
-       << e["full_detections"] << " | " << e["contacts"] << " | " << e["misses"] << " | " << e["spurious_contacts"]
-       << " |\n";
-  }
-  return md.str();
+  if (!status.ok())
+    throw std::runtime_error("the collision report failed: " + status.message +
+                             "; results.json and the CSV tables are written");
 }
 
 }  // namespace
@@ -909,6 +734,20 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
     }
     document["timer_overhead_ns"] = distribution(empty)["median"];
   }
+  // The settings the report quotes (the full study is config.resolved.toml). The detailed tree
+  // of the per-cycle cost tables is the second tree when there are several (the first is the
+  // paper's binary tree), with the first bounding volume.
+  document["settings"] = {
+      {"trajectories", study.trajectories},
+      {"approach_tremor_rms_per_axis_m", study.approach.tremor.rms_per_axis_m},
+      {"tremor", {{"trajectories", study.tremor.trajectories},
+                  {"start_distance_min_m", study.tremor.start_distance_min_m},
+                  {"evaluate_at_m", study.tremor.evaluate_at_m}}},
+      {"prediction", {{"window_samples", study.prediction.window_samples},
+                      {"sample_period_cycles", study.prediction.sample_period_cycles},
+                      {"straight_line_range_m", study.prediction.straight_line_range_m}}},
+      {"detailed_tree", study.trees.size() > 1 ? study.trees[1].name : study.trees[0].name},
+      {"detailed_bounding_volume", volume_name(study.bounding_volumes.front())}};
   json seeds{{"approach", study.seed}, {"tremor_study", study.tremor.seed}};
   document["provenance"]["seeds"] = seeds;
 
@@ -1186,9 +1025,7 @@ nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionR
                                     rows));
   }
   write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");
-  const std::string plot_note = options.plots ? make_plots(options) : "not asked for";
-  if (!plot_note.empty() && options.plots) say("plots: %s\n", plot_note.c_str());
-  write_file_atomically(options.output_directory + "/report.md", report_markdown(document, study, plot_note));
+  if (options.report) write_report(options);
   say("done in %.1f s\n", seconds_since(start));
   return document;
 }

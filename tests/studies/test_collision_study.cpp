@@ -1,8 +1,9 @@
 // `touchstone collision` end to end on a small study (stomach at 500 and 2,500 triangles, 20
 // trajectories): every section of results.json and the case fields of its contract, counts
 // positive and consistent (the binary tree's first-contact count against its depth, one
-// distance per free prediction cycle, no missed contact), report.md showing the numbers of
-// results.json, and config errors that name the file and the key.
+// distance per free prediction cycle, no missed contact), report.md (written by the reports
+// package through the launcher) showing the numbers of results.json, and config errors that
+// name the file and the key.
 #include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/output_files.hpp"

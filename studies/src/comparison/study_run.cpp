@@ -6,6 +6,7 @@
 
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
+#include "touchstone/studies/report_launcher.hpp"
 #include "touchstone/version.hpp"
 
 #include <algorithm>
@@ -20,10 +21,6 @@
 #include <set>
 #include <stdexcept>
 #include <thread>
-
-#ifndef TOUCHSTONE_SOURCE_DIR
-#define TOUCHSTONE_SOURCE_DIR "."
-#endif
 
 namespace touchstone::studies {
 namespace fs = std::filesystem;
@@ -409,24 +406,13 @@ class StudyRun {
     return c;
   }
 
+  /// report.md and its plots from the reports package (the C++ side writes data only).
   void make_report() const {
-    std::string script = options_.report_script;
-    if (script.empty()) {
-      const char* env = std::getenv("TOUCHSTONE_REPORT_SCRIPT");
-      script = env != nullptr ? env : std::string(TOUCHSTONE_SOURCE_DIR) + "/reports/make_report.py";
-    }
-    if (!fs::exists(script)) throw std::runtime_error("report generator not found: " + script);
-    const auto quote = [](const std::string& s) {
-      std::string q = "'";
-      for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-      return q + "'";
-    };
-    const std::string command = quote(options_.python) + " " + quote(script) + " " + quote(out_);
+    ReportLaunchOptions launch;
+    launch.python = options_.python;
     std::fflush(stdout);
-    const int status = std::system(command.c_str());
-    if (status != 0)
-      throw std::runtime_error("the report generator failed (" + command + ", status " + std::to_string(status) +
-                               "); results.json and the CSV tables are written");
+    const ReportStatus status = run_report("study", out_, launch);
+    if (!status.ok()) throw std::runtime_error(status.message + "; results.json and the CSV tables are written");
   }
 
   const ComparisonStudy& study_;

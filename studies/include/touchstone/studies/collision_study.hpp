@@ -14,8 +14,10 @@
 /// - Per-cycle cost over whole runs: full detection every cycle against the predictor, split
 ///   into approach, contact and release cycles (distances, box tests, triangle tests, time).
 ///
-/// Output: results.json (the study contract, plus the sections "organs", "table1", "tremor",
-/// "cycle_cost"), config.resolved.toml, table1.csv, tremor.csv, cycle_cost.csv and report.md.
+/// Output: results.json (the study contract, plus the sections "settings", "organs", "table1",
+/// "tremor", "cycle_cost"; schema reports/schema/collision_results.schema.json),
+/// config.resolved.toml, table1.csv, tremor.csv, cycle_cost.csv; report.md and the plots are
+/// written by the reports package (`python3 -m touchstone_reports collision`).
 
 #include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/realtime/hand_motion/approach_trajectory.hpp"
@@ -107,16 +109,19 @@ struct CollisionRunOptions {
   std::string output_directory = "output/collision";
   std::string config_text;  ///< for provenance (config_sha256)
   bool quiet = false;
-  /// Run reports/collision_plots.py (matplotlib) for PNG plots linked from report.md; when it
-  /// fails, the report says so and everything else is still written.
+  /// Write report.md with the reports package (report_launcher.hpp); false: data only.
+  bool report = true;
+  /// PNG plots linked from report.md (matplotlib); when they cannot be made, report.md says so
+  /// and everything else is still written.
   bool plots = true;
+  /// The interpreter of the reports package.
   std::string python = "/usr/bin/python3";
-  /// The plot script; empty: reports/collision_plots.py of the source tree.
-  std::string plot_script;
 };
 
-/// Runs the three parts and writes results.json, config.resolved.toml, the CSV tables, the
-/// plots (optional) and report.md into the output folder. Returns the results document.
+/// Runs the three parts and writes results.json, config.resolved.toml and the CSV tables into the
+/// output folder, then (options.report) runs the reports package for report.md and the plots.
+/// Returns the results document; throws std::runtime_error when the report was asked for and
+/// could not be written (the data files are written by then).
 nlohmann::json run_collision_study(const CollisionStudy& study, const CollisionRunOptions& options);
 
 /// The tremor study's measurement on one trajectory (shared with test_tremor_model's method):

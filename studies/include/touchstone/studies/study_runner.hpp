@@ -8,7 +8,7 @@
 /// against the reference is written next to the reference's own estimated discretisation error.
 ///
 /// Output: results.json (the study contract plus "table2", "targets", "reference_summary"), CSV
-/// tables, report.md with PNG plots (reports/make_report.py, matplotlib), one folder per case.
+/// tables, report.md with PNG plots (the reports package, matplotlib), one folder per case.
 /// Finished MFS cases are reused when the same case (same resolved config and code version) is
 /// already in the output folder; FEM solves are reused through the reference study's cache.
 
@@ -140,8 +140,7 @@ struct StudyRunOptions {
   /// measured while other cases run, and results.json says so (`mfs_jobs`); Table 2 and the
   /// run-time plots then compare times taken under load — keep 1 for timing studies.
   int jobs = 1;
-  std::string python = "/usr/bin/python3";       ///< with matplotlib
-  std::string report_script;                     ///< empty: <source>/reports/make_report.py
+  std::string python = "/usr/bin/python3";       ///< with matplotlib, for the reports package
 };
 
 /// Runs the study and writes <out>/results.json, the CSV tables and (unless disabled) the
