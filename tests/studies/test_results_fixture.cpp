@@ -1,5 +1,5 @@
 // The committed study results fixture (tests/fixtures/results/study_results.json, a real
-// `touchstone study studies/ci_accuracy.toml` output trimmed to a few cases) read from C++: the
+// `touchstone study studies/configs/ci_accuracy.toml` output trimmed to a few cases) read from C++: the
 // numbers the Python report prints are the ones the runner's own functions give for the stored
 // inputs. Per MFS case: the force along d, its error against the reference, the force ramp
 // K_t δ d · d, the displacement error at the probes and the accuracy indicator, recomputed and
