@@ -5,6 +5,7 @@
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
@@ -51,8 +52,8 @@ const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
 const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
                                                         {"galerkin", mfs::Formulation::galerkin},
                                                         {"collocation", mfs::Formulation::collocation}};
-const std::vector<Named<mfs::PatchCondition>> patch_conditions{{"frictionless", mfs::PatchCondition::frictionless},
-                                                               {"bonded", mfs::PatchCondition::bonded}};
+const std::vector<Named<geometry::ContactCondition>> patch_conditions{{"frictionless", geometry::ContactCondition::frictionless},
+                                                               {"bonded", geometry::ContactCondition::bonded}};
 const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
 const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::quartic_spline},
                                               {"cubic_spline", mfs::Weight::cubic_spline},
@@ -164,7 +165,7 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   } else {
     info = {{"source", "file"}};
   }
-  geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
+  geometry::TriangleSurface surface = meshes::load_msh_surface(path);
   info["path"] = path;
   info["sha256"] = sha256_hex(read_file(path));
   info["vertices"] = surface.vertices().size();
@@ -188,7 +189,7 @@ Eigen::Vector3d study_contact_point(const MfsStudy& study) {
   return study.contact_point_m ? *study.contact_point_m : contact_point(study.geometry);
 }
 
-mfs::ToolContact tool_contact(const MfsStudy& study, mfs::PatchCondition condition) {
+mfs::ToolContact tool_contact(const MfsStudy& study, geometry::ContactCondition condition) {
   mfs::ToolContact contact;
   contact.point = study_contact_point(study);
   contact.direction = study.direction.normalized();
@@ -321,7 +322,7 @@ class CaseRunner {
     if (!study.atlas_path.empty()) atlas_ = mfs::read_organ_atlas(study.atlas_path);
   }
 
-  json run(mfs::PatchCondition condition, int node_count) const {
+  json run(geometry::ContactCondition condition, int node_count) const {
     const mfs::ToolContact contact = tool_contact(study_, condition);
     mfs::LocalModelSettings settings = study_.model;
     settings.sprinkling.node_count = node_count;
@@ -515,7 +516,7 @@ class CaseRunner {
   /// The body-aware exterior from the organ atlas, if one was given.
   mfs::ExteriorStiffnessSource exterior_source() const {
     if (!atlas_) return {};
-    return [this](const mfs::ToolContact& contact, double local_radius_m, const mfs::Material& material, int modes,
+    return [this](const mfs::ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
                   Eigen::MatrixXd& stiffness, std::string& why_not) {
       mfs::OrganAtlasQuery query;
       query.contact_point_m = contact.point;
@@ -582,7 +583,7 @@ void print_table(const json& cases, const Eigen::Vector3d& d) {
 
 // ---------------------------------------------------------------------------------------------
 
-std::string mfs_case_id(mfs::PatchCondition contact, int node_count) {
+std::string mfs_case_id(geometry::ContactCondition contact, int node_count) {
   return "MFS-" + name_of(patch_conditions, contact) + "-N" + std::to_string(node_count);
 }
 
@@ -895,7 +896,7 @@ std::string resolved_config_toml(const MfsStudy& study) {
 double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
   if (study.surface_path.empty()) throw std::invalid_argument("paper_tip_spacing_m: the study has no surface file");
   if (!study.model.paper_mode) throw std::invalid_argument("paper_tip_spacing_m: study '" + study.name + "' is not in paper mode");
-  const auto organ = geometry::TriangleSurface::from_msh(study.surface_path);
+  const auto organ = meshes::load_msh_surface(study.surface_path);
   mfs::LocalModelSettings settings = study.model;
   settings.sprinkling.node_count = node_count;
   // The tip spacing does not depend on the patch condition (the sprinkler never reads it).

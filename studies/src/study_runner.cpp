@@ -156,7 +156,7 @@ MfsSeries read_series(const std::string& path, const std::string& name, const to
   const Eigen::Vector3d& d = problem.direction;
   t.insert_or_assign("tool", toml::table{{"depth", problem.max_depth_m()},
                                          {"direction", toml::array{d[0], d[1], d[2]}},
-                                         {"contact", fem::to_string(problem.contact)}});
+                                         {"contact", geometry::to_string(problem.contact)}});
   std::ostringstream text;
   text << t << "\n";
   MfsSeries series;
@@ -357,7 +357,7 @@ json problem_notes(const ComparisonProblem& p) {
     notes.push_back({{"id", "grazing"},
                      {"text", "the tool direction is " + format_number(std::round(p.angle_to_normal_rad() * 1800 / M_PI) / 10) +
                                   " deg from the inward normal (grazing); both models prescribe " +
-                                  std::string(p.contact == fem::Contact::bonded ? "u = δ d on the patch" : "u·d = δ on the patch (frictionless)")}});
+                                  std::string(p.contact == geometry::ContactCondition::bonded ? "u = δ d on the patch" : "u·d = δ on the patch (frictionless)")}});
   return notes;
 }
 
@@ -576,7 +576,7 @@ class StudyRun {
             {"contact_polar_angle_rad", p.contact_polar_angle_rad},
             {"youngs_modulus_Pa", p.material.youngs_modulus_Pa},
             {"poisson_ratio", p.material.poisson_ratio},
-            {"contact", fem::to_string(p.contact)},
+            {"contact", geometry::to_string(p.contact)},
             {"direction", vector_json(p.direction.normalized())},
             {"angle_to_normal_rad", number(p.angle_to_normal_rad())},
             {"contact_point_m", vector_json(contact_point(g))},
@@ -1416,7 +1416,7 @@ ComparisonProblem read_problem(ConfigTable& problem) {
   p.contact_polar_angle_rad = problem.quantity("contact_polar_angle", Dimension::angle, 0.0);
   p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
   p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
-  p.contact = fem::contact_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
+  p.contact = geometry::contact_condition_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
   // The direction: given, or the inward normal tilted by `tilt` toward the base in the
   // meridian plane (e_θ = (cos θ, 0, −sin θ)); at the pole with no tilt exactly (0, 0, −1).
   if (problem.has("direction") && problem.has("tilt"))
