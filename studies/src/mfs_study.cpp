@@ -52,8 +52,8 @@ const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
 const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
                                                         {"galerkin", mfs::Formulation::galerkin},
                                                         {"collocation", mfs::Formulation::collocation}};
-const std::vector<Named<geometry::ContactCondition>> patch_conditions{{"frictionless", geometry::ContactCondition::frictionless},
-                                                               {"bonded", geometry::ContactCondition::bonded}};
+const std::vector<Named<geometry::ContactCondition>> patch_conditions{
+    {"frictionless", geometry::ContactCondition::frictionless}, {"bonded", geometry::ContactCondition::bonded}};
 const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
 const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::quartic_spline},
                                               {"cubic_spline", mfs::Weight::cubic_spline},

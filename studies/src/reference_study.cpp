@@ -457,7 +457,7 @@ class Runner {
               {problem.geometry.tool_radius_m / problem.geometry.body_radius_m, c.at("qoi").at("ratio_to_half_space").get<double>()});
     }
     for (const auto& [key, points] : series) {
-      json entry{{"contact", fem::to_string(static_cast<geometry::ContactCondition>(key.first))}, {"poisson_ratio", key.second}};
+      json entry{{"contact", geometry::to_string(static_cast<geometry::ContactCondition>(key.first))}, {"poisson_ratio", key.second}};
       json xs = json::array(), ys = json::array();
       for (const auto& [x, y] : points) {
         xs.push_back(x);
