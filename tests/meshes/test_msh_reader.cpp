@@ -292,7 +292,7 @@ TEST(MshReader, PhysicalNamesInFileOrderWithoutReadingTheMesh) {
   expect_invalid_argument([&] { read_msh_physical_names(missing); }, {missing, "cannot open"});
   const std::string unquoted = directory.file(
       "unquoted.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n2 4 base\n$EndPhysicalNames\n");
-  expect_invalid_argument([&] { read_msh_physical_names(unquoted); }, {unquoted, "line 5", "quoted name"});
+  expect_invalid_argument([&] { read_msh_physical_names(unquoted); }, {unquoted, "line 6", "quoted name"});
   const std::string binary = directory.file("binary.msh", "$MeshFormat\n4.1 1 8\n$EndMeshFormat\n");
   expect_invalid_argument([&] { read_msh_physical_names(binary); }, {binary, "binary"});
 }
