@@ -18,6 +18,7 @@
 #include "support/embree_scene.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 
 #include <Eigen/Geometry>
 #include <benchmark/benchmark.h>
@@ -371,7 +372,7 @@ const bool registered = [] {
       if (entry.path().extension() != ".msh") continue;
       try {
         static std::vector<std::unique_ptr<Scene>> organs;
-        organs.push_back(std::make_unique<Scene>(TriangleSurface::from_msh(entry.path().string())));
+        organs.push_back(std::make_unique<Scene>(touchstone::meshes::load_msh_surface(entry.path().string())));
         register_scene(entry.path().stem().string(), organs.back().get());
       } catch (const std::exception& e) {
         std::cerr << "collision_benchmark: skipping " << entry.path() << ": " << e.what() << "\n";

@@ -39,7 +39,7 @@ const std::string& b2_mesh(int level) {
 void fem_solve(benchmark::State& state) {
   fem::ElasticityProblem problem;
   problem.mesh_path = b2_mesh(static_cast<int>(state.range(0)));
-  problem.punch = fem::RigidPunch{2.5e-4, {0, 0, -1}, fem::Contact::frictionless};
+  problem.punch = fem::RigidPunch{2.5e-4, {0, 0, -1}, geometry::ContactCondition::frictionless};
   problem.solver.solver = static_cast<fem::LinearSolver>(state.range(1));
   fem::ElasticitySolution solution;
   double assembly = 0, solve = 0, setup = 0;

@@ -41,7 +41,7 @@ using touchstone::realtime::mfs::CollocationSystem;
 using touchstone::realtime::mfs::LocalModel;
 using touchstone::realtime::mfs::LocalModelSettings;
 using touchstone::realtime::mfs::LocalSolution;
-using touchstone::realtime::mfs::Material;
+using touchstone::geometry::Material;
 using touchstone::realtime::mfs::NodeCloud;
 using touchstone::realtime::mfs::paper_settings;
 using touchstone::realtime::mfs::solve_local_model;

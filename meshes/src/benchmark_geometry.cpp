@@ -1,3 +1,6 @@
+// The gmsh (OpenCASCADE) geometry and graded tetrahedral meshes of the benchmark bodies B1-B5
+// and the test box (one file: the bodies share the patch-rim circle, the size law and the
+// physical groups that the FEM and the MFS rely on).
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "gmsh_session.hpp"
 

@@ -1,4 +1,8 @@
+// Surface meshes in five formats behind one read and one write (one file: the formats share the
+// welding, unit scaling, triangulation of polygons and the error naming by file and element).
 #include "touchstone/meshes/surface_mesh_io.hpp"
+
+#include "touchstone/meshes/msh_reader.hpp"
 
 #include <Eigen/Geometry>
 #include <vtkAlgorithm.h>
@@ -628,7 +632,7 @@ SurfaceMesh read_surface_mesh(const std::string& path, const SurfaceReadOptions&
   try {
     switch (mesh.format) {
       case SurfaceFormat::msh: {
-        geometry::SurfaceData data = geometry::read_msh_surface(path, options.msh_groups);
+        geometry::SurfaceData data = read_msh_surface(path, options.msh_groups);
         mesh.vertices = std::move(data.vertices);
         mesh.triangles = std::move(data.triangles);
         mesh.labels = std::move(data.labels);

@@ -1,4 +1,5 @@
-// Linear elasticity on a tetrahedral gmsh mesh with deal.II 9.4 simplex elements.
+// Linear elasticity on a tetrahedral gmsh mesh with deal.II 9.4 simplex elements (one file: one
+// solver class whose setup, assembly, solve and output share deal.II's DoF and mesh state).
 //
 // Why simplices: gmsh grades tetrahedra toward the patch-edge circle (where the contact
 // stress is singular) with an exact circle in the geometry; 3-D hexahedral recombination in
@@ -20,7 +21,7 @@
 
 #include "touchstone/fem/elasticity_problem.hpp"
 
-#include "msh_physical_names.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 
 #include <deal.II/base/function.h>
 #include <deal.II/base/index_set.h>
@@ -54,8 +55,10 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace touchstone::fem {
 namespace {
@@ -195,7 +198,7 @@ class ElasticitySolver {
 
  private:
   void read_mesh() {
-    names_ = read_msh_physical_names(problem_.mesh_path);
+    read_physical_names();
     std::ifstream in(problem_.mesh_path);
     if (!in) throw std::runtime_error(problem_.mesh_path + ": cannot open mesh file");
     GridIn<dim> grid_in;
@@ -218,12 +221,31 @@ class ElasticitySolver {
                                    "surface must be named)");
   }
 
+  /// The names of the surface groups, which deal.II's GridIn drops (it keeps the numeric tags
+  /// as boundary ids). An unreadable file is a runtime_error here, as GridIn's failures are.
+  void read_physical_names() {
+    std::vector<touchstone::meshes::MshPhysicalName> names;
+    try {
+      names = touchstone::meshes::read_msh_physical_names(problem_.mesh_path);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(e.what());
+    }
+    if (names.empty())
+      throw std::runtime_error(problem_.mesh_path +
+                               ": no $PhysicalNames section (name the boundaries with gmsh physical groups)");
+    for (const touchstone::meshes::MshPhysicalName& name : names)
+      if (name.dimension == 2) surface_tags_[name.name] = name.tag;
+  }
+
   types::boundary_id boundary_id(const std::string& name, bool required) const {
-    const auto it = names_.surfaces.find(name);
-    if (it == names_.surfaces.end()) {
-      if (required)
-        throw std::runtime_error(problem_.mesh_path + ": no surface physical group named '" +
-                                 name + "' (has: " + names_.surface_list() + ")");
+    const auto it = surface_tags_.find(name);
+    if (it == surface_tags_.end()) {
+      if (required) {
+        std::string list;
+        for (const auto& [known, tag] : surface_tags_) list += (list.empty() ? "" : ", ") + known;
+        throw std::runtime_error(problem_.mesh_path + ": no surface physical group named '" + name +
+                                 "' (has: " + (list.empty() ? std::string("none") : list) + ")");
+      }
       return numbers::invalid_boundary_id;
     }
     return static_cast<types::boundary_id>(it->second);
@@ -269,7 +291,7 @@ class ElasticitySolver {
   void add_punch_constraints(const RigidPunch& punch) {
     const types::boundary_id patch = boundary_id("tool_patch", true);
     const Eigen::Vector3d d = punch.direction.normalized();
-    if (punch.contact == Contact::bonded) {
+    if (punch.contact == touchstone::geometry::ContactCondition::bonded) {
       const Eigen::Vector3d u = punch.depth_m * d;
       VectorTools::interpolate_boundary_values(
           mapping_, dof_handler_, patch,
@@ -563,7 +585,7 @@ class ElasticitySolver {
   double kappa_;                 ///< bulk modulus κ = λ + 2μ/3 [Pa]
   bool mixed_;                   ///< Formulation::mixed_p0disc
   std::vector<double> cell_pressures_;  ///< p = κ Π₀(div u) [Pa] of the locally owned cells
-  MshPhysicalNames names_;
+  std::map<std::string, int> surface_tags_;  ///< surface group name → physical tag (boundary id)
 
   IndexSet locally_owned_, locally_relevant_;
   AffineConstraints<double> constraints_;

@@ -16,19 +16,6 @@ namespace {
 
 }  // namespace
 
-void Material::validate() const {
-  if (!std::isfinite(youngs_modulus_Pa) || youngs_modulus_Pa <= 0)
-    reject("Material.youngs_modulus_Pa", youngs_modulus_Pa, "must be finite and > 0");
-  if (!std::isfinite(poisson_ratio) || poisson_ratio < 0 || poisson_ratio >= 0.5)
-    reject("Material.poisson_ratio", poisson_ratio, "must be in [0, 0.5)");
-}
-
-double Material::lame_lambda_Pa() const {
-  return youngs_modulus_Pa * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio));
-}
-
-double Material::shear_modulus_Pa() const { return youngs_modulus_Pa / (2 * (1 + poisson_ratio)); }
-
 void RigidPunch::validate() const {
   if (!std::isfinite(depth_m) || depth_m <= 0) reject("RigidPunch.depth_m", depth_m, "must be finite and > 0");
   if (!direction.allFinite() || direction.norm() < 1e-12)
@@ -88,14 +75,6 @@ Formulation formulation_from_string(const std::string& name) {
   if (name == "displacement") return Formulation::displacement;
   if (name == "mixed" || name == "mixed_p0disc") return Formulation::mixed_p0disc;
   throw std::invalid_argument("unknown formulation '" + name + "' (choose displacement, mixed, mixed_p0disc)");
-}
-
-std::string to_string(Contact contact) { return contact == Contact::bonded ? "bonded" : "frictionless"; }
-
-Contact contact_from_string(const std::string& name) {
-  if (name == "bonded") return Contact::bonded;
-  if (name == "frictionless") return Contact::frictionless;
-  throw std::invalid_argument("unknown contact '" + name + "' (choose frictionless, bonded)");
 }
 
 }  // namespace touchstone::fem

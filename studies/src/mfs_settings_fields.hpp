@@ -40,8 +40,8 @@ void add_local_model_params(nlohmann::json& params, const realtime::mfs::LocalMo
 
 /// Config names of the tool contact and the exterior (also used outside the engine's table).
 std::vector<std::string> patch_condition_names();
-std::string patch_condition_name(realtime::mfs::PatchCondition condition);
-realtime::mfs::PatchCondition patch_condition_from_name(const std::string& name);
+std::string patch_condition_name(geometry::ContactCondition condition);
+geometry::ContactCondition patch_condition_from_name(const std::string& name);
 std::string exterior_name(realtime::mfs::ExteriorCondition exterior);
 
 }  // namespace touchstone::studies

@@ -5,6 +5,7 @@
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/meshes/point_field_vtu.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/node_cloud_vtk.hpp"
@@ -75,7 +76,7 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   } else {
     info = {{"source", "file"}};
   }
-  geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
+  geometry::TriangleSurface surface = meshes::load_msh_surface(path);
   info["path"] = path;
   info["sha256"] = sha256_hex(read_file(path));
   info["vertices"] = surface.vertices().size();
@@ -99,7 +100,7 @@ Eigen::Vector3d study_contact_point(const MfsStudy& study) {
   return study.contact_point_m ? *study.contact_point_m : contact_point(study.geometry);
 }
 
-mfs::ToolContact tool_contact(const MfsStudy& study, mfs::PatchCondition condition) {
+mfs::ToolContact tool_contact(const MfsStudy& study, geometry::ContactCondition condition) {
   mfs::ToolContact contact;
   contact.point = study_contact_point(study);
   contact.direction = study.direction.normalized();
@@ -125,7 +126,8 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"poisson_ratio", study.material.poisson_ratio},
           {"depth_m", study.depth_m},
           {"direction", vector_json(contact.direction)},
-          {"contact", patch_condition_name(contact.condition)}};
+          {"contact", patch_condition_name(contact.condition)},
+          {"local_radius_m", s.sprinkling.local_radius_m}};
   // Every engine setting, from the one table that also reads and resolves them.
   add_local_model_params(params, s);
   return params;
@@ -190,7 +192,7 @@ class CaseRunner {
     if (!study.atlas_path.empty()) atlas_ = mfs::read_organ_atlas(study.atlas_path);
   }
 
-  json run(mfs::PatchCondition condition, int node_count) const {
+  json run(geometry::ContactCondition condition, int node_count) const {
     const mfs::ToolContact contact = tool_contact(study_, condition);
     mfs::LocalModelSettings settings = study_.model;
     settings.sprinkling.node_count = node_count;
@@ -384,7 +386,7 @@ class CaseRunner {
   /// The body-aware exterior from the organ atlas, if one was given.
   mfs::ExteriorStiffnessSource exterior_source() const {
     if (!atlas_) return {};
-    return [this](const mfs::ToolContact& contact, double local_radius_m, const mfs::Material& material, int modes,
+    return [this](const mfs::ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
                   Eigen::MatrixXd& stiffness, std::string& why_not) {
       mfs::OrganAtlasQuery query;
       query.contact_point_m = contact.point;
@@ -459,7 +461,7 @@ meshes::MeshParameters organ_surface_geometry(const MfsStudy& study) {
 double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
   if (study.surface_path.empty()) throw std::invalid_argument("paper_tip_spacing_m: the study has no surface file");
   if (!study.model.paper_mode) throw std::invalid_argument("paper_tip_spacing_m: study '" + study.name + "' is not in paper mode");
-  const auto organ = geometry::TriangleSurface::from_msh(study.surface_path);
+  const auto organ = meshes::load_msh_surface(study.surface_path);
   mfs::LocalModelSettings settings = study.model;
   settings.sprinkling.node_count = node_count;
   // The tip spacing does not depend on the patch condition (the sprinkler never reads it).

@@ -21,7 +21,7 @@ namespace mfs = realtime::mfs;
 
 // ---------------------------------------------------------------------------------------------
 
-std::string mfs_case_id(mfs::PatchCondition contact, int node_count) {
+std::string mfs_case_id(geometry::ContactCondition contact, int node_count) {
   return "MFS-" + patch_condition_name(contact) + "-N" + std::to_string(node_count);
 }
 

@@ -46,13 +46,6 @@ json matrix_json(const Eigen::Matrix3d& m, int n) {
 
 Eigen::Vector3d to_eigen(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
 
-realtime::mfs::Material realtime_material(const fem::Material& m) {
-  realtime::mfs::Material out;
-  out.youngs_modulus_Pa = m.youngs_modulus_Pa;
-  out.poisson_ratio = m.poisson_ratio;
-  return out;
-}
-
 
 constexpr std::array<PunchMode, 3> mode_order{{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2}};
 
@@ -95,7 +88,7 @@ realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geomet
 }
 
 Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, double local_radius_m,
-                                                      const realtime::mfs::Material& material, int polar_points,
+                                                      const geometry::Material& material, int polar_points,
                                                       int azimuth_points) {
   if (!(local_radius_m > tool_radius_m) || !(tool_radius_m > 0))
     throw std::invalid_argument("half_space_exterior_stiffness_N_per_m: local_radius_m = " +
@@ -127,7 +120,7 @@ Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, doub
   return 0.5 * (k + k.transpose());
 }
 
-ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const fem::Material& material,
+ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const geometry::Material& material,
                                          AtlasModes modes, const std::vector<int>& refinements, double trace_depth_m,
                                          const fem::SolverParameters& solver, const AtlasRunOptions& options,
                                          const std::string& work_directory) {
@@ -135,7 +128,7 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
   meshes::MeshParameters g = geometry;
   g.exterior_of_local_ball = true;
   const PunchFrame frame = atlas_punch_frame(geometry);
-  const realtime::mfs::Material punch_material = realtime_material(material);
+  const geometry::Material& punch_material = material;
   const double a = g.tool_radius_m;
   const int n = mode_count(modes);
   const auto combinations = trace_combinations(modes);
@@ -333,7 +326,7 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, co
   study.validate();
   const bool rank0 = fem::MpiSession::rank() == 0;
   const int n = mode_count(study.modes);
-  const realtime::mfs::Material punch_material = realtime_material(study.material);
+  const geometry::Material& punch_material = study.material;
   const double a = study.geometry.tool_radius_m, l = study.geometry.local_radius_m;
 
   const Eigen::Matrix3d half_space = half_space_exterior_stiffness_N_per_m(

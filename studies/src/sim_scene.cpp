@@ -111,8 +111,8 @@ SimScene read_sim_scene(const std::string& path) {
   s.tool.shaft_length_m = tool.quantity("shaft_length", Dimension::length, s.tool.shaft_length_m);
   s.tool.shaft_radius_m = tool.quantity("shaft_radius", Dimension::length, s.tool.shaft_radius_m);
   s.tool.condition = tool.choice("contact", {"frictionless", "bonded"}, "frictionless") == "bonded"
-                         ? realtime::mfs::PatchCondition::bonded
-                         : realtime::mfs::PatchCondition::frictionless;
+                         ? geometry::ContactCondition::bonded
+                         : geometry::ContactCondition::frictionless;
 
   // The engine: the same sections as `touchstone mfs`, under [model]. The energy and traction
   // extractions are study quantities (a volume quadrature per solve, a shell quadrature per

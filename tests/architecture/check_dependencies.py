@@ -3,6 +3,7 @@
 
     geometry  <-  meshes
     geometry  <-  realtime
+    geometry, meshes  <-  reference_fem
     meshes, reference_fem, realtime  <-  studies
 
 deal.II stays inside reference_fem/, and inside realtime/ no two folders include each other. This check fails, naming the file and line, when a source

@@ -4,6 +4,7 @@
 #include "touchstone/geometry/triangle_surface.hpp"
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -292,11 +293,6 @@ const std::string& benchmark_mesh(meshes::Benchmark benchmark) {
   return found->second;
 }
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // ---------------------------------------------------------------------------------------------
 
 TEST(TriangleSurface, IcosphereAreaAndVolumeLieBetweenInscribedAndCircumscribedSpheres) {
@@ -400,8 +396,8 @@ TEST(TriangleSurface, UvSphereAndTorusQueriesMatchBruteForce) {
 
 TEST(TriangleSurface, HemisphereFromGmshMatchesExactValuesAndBruteForce) {
   const std::string& path = benchmark_mesh(meshes::Benchmark::B2);
-  const TriangleSurface all = TriangleSurface::from_msh(path);
-  const TriangleSurface named = TriangleSurface::from_msh(path, {"base", "tool_patch", "free"});
+  const TriangleSurface all = meshes::load_msh_surface(path);
+  const TriangleSurface named = meshes::load_msh_surface(path, {"base", "tool_patch", "free"});
   EXPECT_EQ(all.triangles().size(), named.triangles().size());
   EXPECT_EQ(all.vertices().size(), named.vertices().size());
   EXPECT_EQ(all.area_m2(), named.area_m2());
@@ -433,7 +429,7 @@ TEST(TriangleSurface, HemisphereFromGmshMatchesExactValuesAndBruteForce) {
 }
 
 TEST(TriangleSurface, CylinderFromGmshHasSharpEdgesHandled) {
-  const TriangleSurface surface = TriangleSurface::from_msh(benchmark_mesh(meshes::Benchmark::B1));
+  const TriangleSurface surface = meshes::load_msh_surface(benchmark_mesh(meshes::Benchmark::B1));
   const double w = meshes::MeshParameters{}.body_radius_m;
   EXPECT_NEAR(surface.volume_m3() / (pi * w * w * w), 1, 0.01);
   EXPECT_NEAR(surface.area_m2() / (4 * pi * w * w), 1, 0.01);
@@ -751,215 +747,6 @@ TEST(ValidateSurface, CoincidentVerticesJoinTheLowestWithinTolerance) {
   const std::vector<Vector3d> chain{{0.3, 0, 0}, {0, 0, 0}, {0.2, 0, 0}};
   EXPECT_EQ(coincident_vertices(chain, 0.25), (std::vector<int>{0, 1, 0}));
   EXPECT_TRUE(coincident_vertices({}, 1).empty());
-}
-
-// ---------------------------------------------------------------------------------------------
-// gmsh files.
-
-// The unit octahedron as MSH 4.1: two surface entities ("top", "bottom"), nodes in two blocks,
-// one with parametric coordinates.
-const char* const octahedron_v41 = R"($MeshFormat
-4.1 0 8
-$EndMeshFormat
-$PhysicalNames
-3
-2 1 "top"
-2 2 "bottom"
-3 3 "inside"
-$EndPhysicalNames
-$Entities
-0 0 2 1
-1 -1 -1 0 1 1 1 1 1 0
-2 -1 -1 -1 1 1 0 1 2 0
-1 -1 -1 -1 1 1 1 1 3 2 1 2
-$EndEntities
-$Nodes
-2 6 1 6
-2 1 1 5
-1
-2
-3
-4
-5
-1 0 0 0.1 0.2
--1 0 0 0.3 0.4
-0 1 0 0.5 0.5
-0 -1 0 0 0
-0 0 1 0 0
-2 2 0 1
-6
-0 0 -1
-$EndNodes
-$Elements
-2 8 1 8
-2 1 2 4
-1 1 3 5
-2 3 2 5
-3 2 4 5
-4 4 1 5
-2 2 2 4
-5 3 1 6
-6 2 3 6
-7 4 2 6
-8 1 4 6
-$EndElements
-)";
-
-// The same as MSH 2.2, with sparse node tags, a line and a tetrahedron to skip, an unknown
-// section, and element 13 repeated because it also belongs to the group "marked".
-const char* const octahedron_v22 = R"($MeshFormat
-2.2 0 8
-$EndMeshFormat
-$PhysicalNames
-4
-1 9 "rim"
-2 1 "top"
-2 2 "bottom"
-2 7 "marked"
-$EndPhysicalNames
-$Nodes
-6
-10 1 0 0
-20 -1 0 0
-30 0 1 0
-40 0 -1 0
-50 0 0 1
-60 0 0 -1
-$EndNodes
-$Comments
-anything $Nodes
-$EndComments
-$Elements
-11
-1 1 2 9 1 10 30
-2 4 2 0 1 10 20 30 50
-11 2 2 1 1 10 30 50
-12 2 2 1 1 30 20 50
-13 2 2 1 1 20 40 50
-14 2 2 1 1 40 10 50
-15 2 2 2 2 30 10 60
-16 2 2 2 2 20 30 60
-17 2 2 2 2 40 20 60
-18 2 2 2 2 10 40 60
-19 2 2 7 1 20 40 50
-$EndElements
-)";
-
-TEST(TriangleSurfaceMsh, ReadsMsh41AndMsh22) {
-  const TemporaryDirectory directory("triangle_surface");
-  for (const char* content : {octahedron_v41, octahedron_v22}) {
-    const std::string path = directory.file("octahedron.msh", content);
-    const TriangleSurface all = TriangleSurface::from_msh(path);
-    EXPECT_EQ(all.triangles().size(), 8u);
-    EXPECT_EQ(all.vertices().size(), 6u);
-    EXPECT_NEAR(all.volume_m3(), 4.0 / 3, 1e-15);
-    EXPECT_NEAR(all.area_m2(), 4 * std::sqrt(3.0), 1e-14);
-    const TriangleSurface named = TriangleSurface::from_msh(path, {"bottom", "top"});
-    EXPECT_EQ(named.triangles().size(), 8u);
-    EXPECT_TRUE(named.contains({0.1, 0.1, 0.1}));
-    EXPECT_FALSE(named.contains({0.5, 0.5, 0.5}));
-    // One half is open: the error names the file and the gmsh element.
-    expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"top"}); }, {path, "hole", "gmsh element", "gmsh nodes"});
-  }
-  // In 2.2 an element's repeats for other groups are one triangle.
-  const std::string path = directory.file("octahedron.msh", octahedron_v22);
-  EXPECT_EQ(TriangleSurface::from_msh(path, {"top", "marked", "bottom"}).triangles().size(), 8u);
-  // Renumbering keeps increasing tag order: node 10 → vertex 0, node 60 → vertex 5.
-  const TriangleSurface surface = TriangleSurface::from_msh(path);
-  EXPECT_EQ(surface.vertices()[0], Vector3d(1, 0, 0));
-  EXPECT_EQ(surface.vertices()[5], Vector3d(0, 0, -1));
-}
-
-TEST(TriangleSurfaceMsh, GmshHemisphereGroupsSelectTriangles) {
-  const std::string& path = benchmark_mesh(meshes::Benchmark::B2);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"free"}); }, {path, "not closed"});
-  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"free", "liver"}); },
-               {path, "'liver'", "available: base, tool_patch, free"});
-  // "tissue" is a volume group, not a surface group.
-  expect_invalid_argument([&] { TriangleSurface::from_msh(path, {"tissue"}); }, {path, "'tissue' is a 3-D group"});
-}
-
-TEST(TriangleSurfaceMsh, RejectsBrokenFilesNamingThem) {
-  const TemporaryDirectory directory("triangle_surface");
-  const std::string missing = directory.path("missing.msh");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(missing); }, {missing, "cannot open"});
-
-  const std::string empty = directory.file("empty.msh", "");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(empty); }, {empty, "not a gmsh MSH file", "empty"});
-
-  const std::string garbage = directory.file("garbage.msh", "solid liver\n  facet normal 0 0 1\n");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(garbage); }, {garbage, "not a gmsh MSH file"});
-
-  std::string noise;
-  std::mt19937 random(7);
-  for (int i = 0; i < 4096; ++i) noise += static_cast<char>(random() & 0xff);
-  const std::string bytes = directory.file("noise.msh", noise);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(bytes); }, {bytes, "not a gmsh MSH file"});
-
-  static constexpr char binary_header[] = "$MeshFormat\n4.1 1 8\n\x01\x00\x00\x00\n$EndMeshFormat\n";
-  const std::string binary =
-      directory.file("binary.msh", std::string(binary_header, sizeof binary_header - 1) + noise);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(binary); }, {binary, "binary", "ASCII"});
-
-  const std::string version = directory.file("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(version); }, {version, "version 3"});
-
-  const std::string v22(octahedron_v22);
-  const std::string truncated = directory.file("truncated.msh", v22.substr(0, v22.find("14 2 2")));
-  expect_invalid_argument([&] { TriangleSurface::from_msh(truncated); }, {truncated, "unexpected end of file", "$Elements"});
-
-  std::string bad_number = v22;
-  bad_number.replace(bad_number.find("30 0 1 0"), 8, "30 0 x 0");
-  const std::string malformed = directory.file("malformed.msh", bad_number);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(malformed); }, {malformed, "line 15", "coordinate", "'x'"});
-
-  std::string short_section = v22;
-  short_section.replace(short_section.find("$Nodes\n6"), 8, "$Nodes\n7");
-  const std::string miscounted = directory.file("miscounted.msh", short_section);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(miscounted); }, {miscounted, "$Nodes"});
-
-  std::string dangling = v22;
-  dangling.replace(dangling.find("18 2 2 2 2 10 40 60"), 19, "18 2 2 2 2 10 40 99");
-  const std::string missing_node = directory.file("dangling.msh", dangling);
-  expect_invalid_argument([&] { TriangleSurface::from_msh(missing_node); }, {missing_node, "node 99"});
-
-  const std::string no_triangles = directory.file("tet.msh",
-                                                  "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
-                                                  "3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n1\n1 4 2 1 1 1 2 3 4\n"
-                                                  "$EndElements\n");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(no_triangles); }, {no_triangles, "no triangles"});
-
-  const std::string quadrangles = directory.file("quad.msh",
-                                                 "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
-                                                 "3 1 1 0\n4 0 1 0\n$EndNodes\n$Elements\n1\n5 3 2 1 1 1 2 3 4\n"
-                                                 "$EndElements\n");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(quadrangles); }, {quadrangles, "element 5", "quadrangle"});
-
-  const std::string no_nodes = directory.file("no_nodes.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n");
-  expect_invalid_argument([&] { TriangleSurface::from_msh(no_nodes); }, {no_nodes, "no $Nodes"});
-
-  // Prefixes of a real file: each fails with std::invalid_argument naming the file.
-  const std::string hemisphere = read_file(benchmark_mesh(meshes::Benchmark::B2));
-  for (std::size_t length = 0; length < hemisphere.size(); length += hemisphere.size() / 37 + 1) {
-    const std::string prefix = directory.file("prefix.msh", hemisphere.substr(0, length));
-    expect_invalid_argument([&] { TriangleSurface::from_msh(prefix); }, {prefix});
-  }
-}
-
-TEST(TriangleSurfaceMsh, ReadMshSurfaceKeepsGmshLabelsWithoutValidating) {
-  const TemporaryDirectory directory("triangle_surface");
-  const std::string path = directory.file("octahedron.msh", octahedron_v22);
-  const SurfaceData top = read_msh_surface(path, {"top"});
-  EXPECT_EQ(top.triangles.size(), 4u);
-  EXPECT_EQ(top.labels.vertex_kind, "gmsh node");
-  EXPECT_EQ(top.labels.triangle_kind, "gmsh element");
-  EXPECT_EQ(top.labels.triangle_tags, (std::vector<long long>{11, 12, 13, 14}));
-  EXPECT_EQ(top.labels.vertex_tags, (std::vector<long long>{10, 20, 30, 40, 50}));
-  const auto defects = validate_surface(top.vertices, top.triangles, path, top.labels);
-  ASSERT_EQ(defects.size(), 1u);
-  EXPECT_TRUE(mentions(defects[0], "1 hole (4 boundary edges")) << defects[0].message;
-  EXPECT_TRUE(mentions(defects[0], "(gmsh nodes ")) << defects[0].message;
-  EXPECT_TRUE(mentions(defects[0], "(gmsh element 1")) << defects[0].message;
 }
 
 }  // namespace

@@ -47,7 +47,7 @@ inline Eigen::Vector3d affine_field(const Eigen::Vector3d& x) {
 /// The affine field on the unit cube (h = 0.34) with four interior probes: prescribed on every
 /// face, or (traction_faces) on x_min, y_min, z_min with its traction σ·n = (λ tr ε I + 2μ ε)·n
 /// on the three others.
-inline ElasticityProblem affine_patch_problem(const Material& material, bool traction_faces, const std::string& mesh_name) {
+inline ElasticityProblem affine_patch_problem(const geometry::Material& material, bool traction_faces, const std::string& mesh_name) {
   ElasticityProblem problem;
   problem.mesh_path = unit_cube_mesh(0.34, mesh_name);
   problem.material = material;
@@ -74,7 +74,7 @@ inline ElasticityProblem affine_patch_problem(const Material& material, bool tra
 /// prescribed as displacement on x_min, y_min, z_min, y_max and as traction on x_max, z_max,
 /// with its body force and exact displacement (for the L2 error).
 template <class Field>
-ElasticityProblem manufactured_cube_problem(const Field& field, const Material& material, double h,
+ElasticityProblem manufactured_cube_problem(const Field& field, const geometry::Material& material, double h,
                                             const std::string& mesh_name) {
   ElasticityProblem problem;
   problem.mesh_path = unit_cube_mesh(h, mesh_name);

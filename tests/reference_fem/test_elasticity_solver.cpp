@@ -12,7 +12,7 @@ namespace touchstone::fem {
 namespace {
 
 
-Material tissue() { return Material{10.0e3, 0.45}; }
+geometry::Material tissue() { return geometry::Material{10.0e3, 0.45}; }
 
 class PatchTest : public ::testing::TestWithParam<unsigned int> {};
 
@@ -68,7 +68,7 @@ struct Manufactured {
 };
 
 double manufactured_l2_error(unsigned int degree, double h, const std::string& mesh_name) {
-  const Material material = tissue();
+  const geometry::Material material = tissue();
   const Manufactured m{2.0, 1.0e-3, material.lame_lambda_Pa(), material.shear_modulus_Pa()};
   ElasticityProblem problem = testing::manufactured_cube_problem(m, material, h, mesh_name);
   problem.solver.degree = degree;
@@ -91,7 +91,7 @@ TEST(ManufacturedSolution, ConvergenceOrderMatchesElementDegree) {
   }
 }
 
-class PunchTest : public ::testing::TestWithParam<Contact> {};
+class PunchTest : public ::testing::TestWithParam<geometry::ContactCondition> {};
 
 // F·(δd) = uᵀKu = 2U: the reaction from the residual and the force from the energy are two
 // different computations that must agree (to the solver tolerance).
@@ -117,7 +117,7 @@ TEST(PunchTest, ObliqueFrictionlessReactionIsAlongTheAxis) {
   problem.mesh_path = testing::coarse_hemisphere_mesh("punch_hemisphere");
   problem.material = tissue();
   const Eigen::Vector3d d = Eigen::Vector3d(0.3, 0.0, -1.0).normalized();
-  problem.punch = RigidPunch{1.0e-4, d, Contact::frictionless};
+  problem.punch = RigidPunch{1.0e-4, d, geometry::ContactCondition::frictionless};
   problem.probes = {{0.0, 0.0, 0.05}, {0.002, 0.001, std::sqrt(0.05 * 0.05 - 0.002 * 0.002 - 0.001 * 0.001)}};
   problem.solver.relative_tolerance = 1e-12;
   const ElasticitySolution solution = solve_elasticity(problem);
@@ -130,7 +130,7 @@ TEST(PunchTest, ObliqueFrictionlessReactionIsAlongTheAxis) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Contacts, PunchTest, ::testing::Values(Contact::frictionless, Contact::bonded),
+INSTANTIATE_TEST_SUITE_P(Contacts, PunchTest, ::testing::Values(geometry::ContactCondition::frictionless, geometry::ContactCondition::bonded),
                          [](const auto& info) { return to_string(info.param); });
 
 TEST(ElasticitySolverInput, MissingBoundaryIsNamed) {
@@ -174,7 +174,7 @@ TEST(ElasticitySolverInput, InvalidParametersAreRejected) {
   problem.material.youngs_modulus_Pa = -1;
   EXPECT_THROW(solve_elasticity(problem), std::invalid_argument);
   problem.material = tissue();
-  problem.punch = RigidPunch{std::nan(""), {0, 0, -1}, Contact::bonded};
+  problem.punch = RigidPunch{std::nan(""), {0, 0, -1}, geometry::ContactCondition::bonded};
   EXPECT_THROW(solve_elasticity(problem), std::invalid_argument);
 }
 

@@ -27,7 +27,7 @@ class MixedPatchTest : public ::testing::TestWithParam<double> {};
 // An affine field has a constant divergence, which the cell projection keeps: the mixed
 // element reproduces it exactly (1e-10 relative at the probes), however incompressible.
 TEST_P(MixedPatchTest, AffineDirichletFieldIsReproduced) {
-  ElasticityProblem problem = testing::affine_patch_problem(Material{10.0e3, GetParam()}, false, "mixed_patch_cube");
+  ElasticityProblem problem = testing::affine_patch_problem(geometry::Material{10.0e3, GetParam()}, false, "mixed_patch_cube");
   problem.solver = mixed_direct();
   const ElasticitySolution solution = solve_elasticity(problem);
   for (std::size_t p = 0; p < problem.probes.size(); ++p) {
@@ -42,7 +42,7 @@ TEST_P(MixedPatchTest, AffineDirichletFieldIsReproduced) {
 // Three faces carry the traction σ·n = (2μ dev ε + κ tr ε I)·n of the same field, whose size
 // grows with κ: exercises the load assembly with the condensed pressure.
 TEST_P(MixedPatchTest, AffineFieldWithTractionFacesIsReproduced) {
-  ElasticityProblem problem = testing::affine_patch_problem(Material{10.0e3, GetParam()}, true, "mixed_patch_cube");
+  ElasticityProblem problem = testing::affine_patch_problem(geometry::Material{10.0e3, GetParam()}, true, "mixed_patch_cube");
   problem.solver = mixed_direct();
   const ElasticitySolution solution = solve_elasticity(problem);
   EXPECT_LT(solution.l2_error_m, 1e-10 * testing::affine_gradient().norm());
@@ -56,8 +56,8 @@ INSTANTIATE_TEST_SUITE_P(PoissonRatios, MixedPatchTest, ::testing::Values(0.3, 0
 double b3_level0_force(double nu, Formulation formulation) {
   ElasticityProblem problem;
   problem.mesh_path = testing::b3_ladder_level0_mesh("mixed_b3_level0");
-  problem.material = Material{10.0e3, nu};
-  problem.punch = RigidPunch{0.25e-3, {0.0, 0.0, -1.0}, Contact::frictionless};
+  problem.material = geometry::Material{10.0e3, nu};
+  problem.punch = RigidPunch{0.25e-3, {0.0, 0.0, -1.0}, geometry::ContactCondition::frictionless};
   problem.solver.formulation = formulation;
   problem.solver.solver = LinearSolver::direct_mumps;
   const ElasticitySolution solution = solve_elasticity(problem);
@@ -128,7 +128,7 @@ struct IncompressibleManufactured {
 };
 
 double incompressible_l2_error(Formulation formulation, double h, const std::string& mesh_name) {
-  const Material material{10.0e3, 0.4999};
+  const geometry::Material material{10.0e3, 0.4999};
   const IncompressibleManufactured m{2.0, 1.0e-3, material.lame_lambda_Pa(), material.shear_modulus_Pa()};
   ElasticityProblem problem = testing::manufactured_cube_problem(m, material, h, mesh_name);
   problem.solver.formulation = formulation;

@@ -31,7 +31,7 @@ void expect_distributed_equals_serial(const ElasticityProblem& problem) {
 ElasticityProblem oblique_bonded_punch() {
   ElasticityProblem problem;
   problem.mesh_path = testing::coarse_hemisphere_mesh("parallel_hemisphere");
-  problem.punch = RigidPunch{1.0e-4, Eigen::Vector3d(0.2, -0.1, -1.0), Contact::bonded};
+  problem.punch = RigidPunch{1.0e-4, Eigen::Vector3d(0.2, -0.1, -1.0), geometry::ContactCondition::bonded};
   problem.probes = {{0.0, 0.0, 0.045}, {0.01, 0.0, 0.03}, {0.0, 0.0, 0.049}};
   problem.solver.relative_tolerance = 1e-14;
   return problem;

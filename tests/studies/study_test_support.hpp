@@ -28,7 +28,7 @@ inline std::filesystem::path scratch_directory(const std::string& name) {
   return out;
 }
 
-/// The [problem] (body R or W = 50 mm, L = 12.5 mm) and a [reference] on studies/<config> with
+/// The [problem] (body R or W = 50 mm, L = 12.5 mm) and a [reference] on studies/configs/<config> with
 /// one mesh family of level-0 edge `edge_size` and two levels.
 inline std::string problem_text(const std::string& benchmark, const std::string& config, const std::string& edge_size) {
   return R"([problem]
@@ -40,7 +40,7 @@ youngs_modulus = "10 kPa"
 poisson_ratio = 0.45
 depths = ["0.125 mm", "0.25 mm"]
 [reference]
-config = ")" + std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/" + config + R"("
+config = ")" + std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/" + config + R"("
 edge_sizes = [")" + edge_size + R"("]
 refinements = [0, 1]
 )";

@@ -18,8 +18,8 @@ namespace {
 
 constexpr double a = 0.0025, l = 0.0125, body_radius_m = 0.05;
 
-realtime::mfs::Material punch_material() {
-  realtime::mfs::Material m;
+geometry::Material punch_material() {
+  geometry::Material m;
   m.youngs_modulus_Pa = 10e3;
   m.poisson_ratio = 0.45;
   return m;
@@ -29,7 +29,7 @@ realtime::mfs::Material punch_material() {
 // prescribed affine field on every face it is the exact energy ½ σ:ε |Ω| (P2 holds the field
 // exactly), not the energy of the homogeneous part alone.
 TEST(OrganAtlasEnergy, IsTheTrueEnergyUnderInhomogeneousDirichletData) {
-  fem::Material material;
+  geometry::Material material;
   material.youngs_modulus_Pa = 10e3;
   material.poisson_ratio = 0.45;
   fem::ElasticityProblem problem = fem::testing::affine_patch_problem(material, false, "atlas_energy_cube");
@@ -49,7 +49,7 @@ TEST(OrganAtlasEnergy, IsTheTrueEnergyUnderInhomogeneousDirichletData) {
 // modes (axisymmetry), and ∝ E. The normal entry lies below the punch's own half-space stiffness
 // 4Ga/(1 − ν) (the exterior holds part of the energy only).
 TEST(OrganAtlasHalfSpace, ClosedFormConvergesAndHasThePunchSymmetry) {
-  const realtime::mfs::Material m = punch_material();
+  const geometry::Material m = punch_material();
   const Eigen::Matrix3d k = half_space_exterior_stiffness_N_per_m(a, l, m, 48, 64);
   const Eigen::Matrix3d fine = half_space_exterior_stiffness_N_per_m(a, l, m, 96, 128);
   EXPECT_LT((k - fine).cwiseAbs().maxCoeff(), 1e-9 * k(0, 0));
@@ -64,7 +64,7 @@ TEST(OrganAtlasHalfSpace, ClosedFormConvergesAndHasThePunchSymmetry) {
   EXPECT_GT(k(0, 0), 0.0);
   EXPECT_LT(k(0, 0), punch);
   EXPECT_GT(k(1, 1), 0.0);
-  realtime::mfs::Material stiffer = m;
+  geometry::Material stiffer = m;
   stiffer.youngs_modulus_Pa *= 3;
   EXPECT_NEAR(half_space_exterior_stiffness_N_per_m(a, l, stiffer)(0, 0), 3 * k(0, 0), 1e-12 * k(0, 0));
 }
@@ -113,8 +113,8 @@ meshes::MeshParameters coarse_geometry(meshes::Benchmark benchmark, double body)
   return g;
 }
 
-fem::Material tissue() {
-  fem::Material material;
+geometry::Material tissue() {
+  geometry::Material material;
   material.youngs_modulus_Pa = 10e3;
   material.poisson_ratio = 0.45;
   return material;

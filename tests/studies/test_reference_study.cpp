@@ -116,16 +116,16 @@ TEST(ReferenceStudy, UnknownKeyIsNamed) {
 }
 
 TEST(ReferenceStudy, HalfSpaceClosedForms) {
-  const fem::Material material{10.0e3, 0.45};
+  const geometry::Material material{10.0e3, 0.45};
   // Sneddon: 2Eaδ/(1−ν²); Mossakovskii: 4Gaδ ln(3−4ν)/(1−2ν), G = E/(2(1+ν)).
-  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::frictionless),
+  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, geometry::ContactCondition::frictionless),
               2 * 10.0e3 * 2.5e-3 * 1e-4 / (1 - 0.45 * 0.45), 1e-15);
   const double g = 10.0e3 / 2.9;
-  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::bonded),
+  EXPECT_NEAR(half_space_punch_force_N(material, 2.5e-3, 1e-4, geometry::ContactCondition::bonded),
               4 * g * 2.5e-3 * 1e-4 * std::log(1.2) / 0.1, 1e-15);
   // Bonded is stiffer than frictionless, and both agree at ν = 0.5 in the limit.
-  EXPECT_GT(half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::bonded),
-            half_space_punch_force_N(material, 2.5e-3, 1e-4, fem::Contact::frictionless));
+  EXPECT_GT(half_space_punch_force_N(material, 2.5e-3, 1e-4, geometry::ContactCondition::bonded),
+            half_space_punch_force_N(material, 2.5e-3, 1e-4, geometry::ContactCondition::frictionless));
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 // inputs. Per MFS case: the force along d, its error against the reference, the force ramp
 // K_t δ d · d, the displacement error at the probes and the accuracy indicator, recomputed and
 // compared with the stored values. A change of these formulas on either side fails here.
-#include "touchstone/studies/provenance.hpp"
+#include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/study_runner.hpp"
 
 #include <gtest/gtest.h>

@@ -172,7 +172,7 @@ TEST(SimRun, ATruncatedCachedOrganIsGeneratedAgain) {
   touchstone::testing::TemporaryDirectory directory("sim");
   const std::string scene_path = directory.file("generated.toml", R"(
 scene = "generated"
-duration = "0.2 s"
+duration = "3 s"
 [organ]
 shape = "hemisphere"
 triangles = 600
@@ -183,6 +183,14 @@ formulation = "collocation"
 node_count = 40
 [model.force]
 reaction = false
+[device.scripted]
+generated_sites = 1
+approach = "0.5 s"
+hold = "0.3 s"
+slide_time = "0.6 s"
+release = "0.5 s"
+rest = "0.2 s"
+transfer = "0.6 s"
 [output]
 frame_stride = 10
 )");

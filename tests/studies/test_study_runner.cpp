@@ -104,7 +104,7 @@ TEST_F(StudyFiles, ProblemIsImposedOnTheReferenceAndEverySeries) {
   EXPECT_DOUBLE_EQ(s.reference.material.poisson_ratio, 0.4);
   EXPECT_DOUBLE_EQ(s.reference.punch.depth_m, 0.2e-3);  // the largest depth of the ramp
   EXPECT_TRUE(s.reference.contacts.empty());
-  EXPECT_EQ(s.reference.punch.contact, fem::Contact::frictionless);
+  EXPECT_EQ(s.reference.punch.contact, geometry::ContactCondition::frictionless);
   // Its mesh families are kept.
   ASSERT_EQ(s.reference.edge_sizes_m.size(), 2u);
   EXPECT_DOUBLE_EQ(s.reference.edge_sizes_m[1], 0.25e-3);

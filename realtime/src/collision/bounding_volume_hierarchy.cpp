@@ -1,3 +1,6 @@
+// The bounding-volume hierarchy (OBB or AABB) over a triangle surface: build, segment, ray and
+// closest-point queries with their test counts (one file: one tree whose queries share its
+// node layout and traversal).
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 
 #include "touchstone/geometry/closest_point_on_triangle.hpp"

@@ -1,3 +1,5 @@
+// The OpenIGTLink device: connection, message parsing, pose and force exchange with a peer such
+// as 3D Slicer (one file: one protocol state machine whose parts share the socket's state).
 #include "touchstone/realtime/haptics/openigtlink_device.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"

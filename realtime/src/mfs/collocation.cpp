@@ -54,11 +54,11 @@ double row_scale(const CollocationRow& row, double spacing, double youngs_modulu
 
 }  // namespace
 
-void assemble_collocation(const NodeCloud& cloud, const Material& material, const CollocationSettings& settings,
+void assemble_collocation(const NodeCloud& cloud, const geometry::Material& material, const CollocationSettings& settings,
                           CollocationSystem& system) {
   const int n = static_cast<int>(cloud.size());
   const int points = n + static_cast<int>(cloud.extra_points.size());
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   const double beta = settings.neumann_stabilization;
   system.status = AssemblyStatus{};
   system.constant_rhs.setZero(3 * points);

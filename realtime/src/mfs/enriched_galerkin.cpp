@@ -1,3 +1,5 @@
+// The enriched MFS: MLS Galerkin plus the punch fields, conditions by multipliers, the KKT solve
+// (one concept; its quadratures and Gram assembly live in their own files).
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 
 #include "touchstone/realtime/mfs/gradient_gram.hpp"
@@ -129,7 +131,7 @@ std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchF
   // A frictionless tool pushing along the patch normal loads only the normal mode; a bonded or
   // oblique one also shears the patch (its constraint traction along d has a tangential part).
   const bool along_normal = contact.direction.normalized().dot(frame.axes.col(2)) > std::cos(1.0 * 3.14159265358979323846 / 180);
-  if (contact.condition == PatchCondition::frictionless && along_normal) return {PunchMode::normal};
+  if (contact.condition == geometry::ContactCondition::frictionless && along_normal) return {PunchMode::normal};
   return {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
 }
 
@@ -340,7 +342,7 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
 }
 
 Eigen::MatrixXd half_space_exterior_stiffness(const std::vector<PunchMode>& modes, const PunchFrame& frame,
-                                              double radius_m, const Material& material, const PatchQuadrature& cut) {
+                                              double radius_m, const geometry::Material& material, const PatchQuadrature& cut) {
   const Eigen::Index m = static_cast<Eigen::Index>(modes.size());
   Eigen::MatrixXd k = Eigen::MatrixXd::Zero(m, m);
   std::vector<PunchFieldSample> samples(modes.size());
@@ -354,7 +356,7 @@ Eigen::MatrixXd half_space_exterior_stiffness(const std::vector<PunchMode>& mode
   return 0.5 * (k + k.transpose());
 }
 
-EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, const ToolContact& contact,
+EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quad, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,
                                    const Eigen::MatrixXd* exterior_stiffness_N_per_m) {
@@ -362,7 +364,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
   model.frame = frame;
   model.exterior = settings.exterior;
   model.modes = enrichment_modes(contact, frame);
-  const bool bonded = contact.condition == PatchCondition::bonded;
+  const bool bonded = contact.condition == geometry::ContactCondition::bonded;
   const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
   const Eigen::Index m = static_cast<Eigen::Index>(model.modes.size());
   const Eigen::Index n = 3 * n_nodes + m;
@@ -393,7 +395,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
   // in a spatially coherent order (dense products over small node sets).
   Eigen::MatrixXd& K = model.stiffness;
   K.setZero(n, n);
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   const double mean_radius = std::accumulate(cloud.radii.begin(), cloud.radii.end(), 0.0) / static_cast<double>(n_nodes);
   GradientGram gram(static_cast<int>(n_nodes));
   for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
@@ -610,7 +612,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
 }
 
 MlsStatus enriched_displacement(const NodeCloud& cloud, const EnrichedModel& model, double radius_m,
-                                const Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
+                                const geometry::Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
                                 const Eigen::Vector3d& x, MlsEvaluation& scratch, Eigen::Vector3d& u) noexcept {
   static const std::vector<int> all_nodes;
   u.setZero();

@@ -13,12 +13,12 @@ std::string to_string(Constraint constraint) { return constraint == Constraint::
 namespace {
 
 /// T (3 × 3): the traction σ(h e_k) n of shape function h with gradient g, column k.
-Eigen::Matrix3d shape_traction(const Material& material, const Eigen::Vector3d& g, const Eigen::Vector3d& n) {
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+Eigen::Matrix3d shape_traction(const geometry::Material& material, const Eigen::Vector3d& g, const Eigen::Vector3d& n) {
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   return lambda * n * g.transpose() + mu * (g.dot(n) * Eigen::Matrix3d::Identity() + g * n.transpose());
 }
 
-double stabilisation_Pa_per_m(const NodeCloud& cloud, const Material& material, const GalerkinSettings& settings) {
+double stabilisation_Pa_per_m(const NodeCloud& cloud, const geometry::Material& material, const GalerkinSettings& settings) {
   const double finest = *std::min_element(cloud.spacing.begin(), cloud.spacing.end());
   return settings.penalty_factor * material.youngs_modulus_Pa / finest;
 }
@@ -30,7 +30,7 @@ void GalerkinSettings::validate() const {
     throw std::invalid_argument("GalerkinSettings.penalty_factor = " + std::to_string(penalty_factor) + " must be > 0");
 }
 
-GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& material, const ToolContact& contact,
+GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                  const PatchQuadrature& volume, const PatchQuadrature& patch,
                                  const PatchQuadrature& cut, const GalerkinSettings& settings) {
   const Eigen::Index n = static_cast<Eigen::Index>(cloud.size());
@@ -39,7 +39,7 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
   system.tool_rhs.setZero(3 * n, 3);
   system.patch_map.setZero(3, 3 * n);
   system.cut_map.setZero(3, 3 * n);
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   Eigen::Matrix<double, 6, 6> elasticity = Eigen::Matrix<double, 6, 6>::Zero();  // Voigt: xx yy zz xy yz zx
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) elasticity(i, j) = lambda;
@@ -143,7 +143,7 @@ GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& materia
     }
     return -1;
   };
-  const Eigen::Matrix3d patch_projection = contact.condition == PatchCondition::bonded
+  const Eigen::Matrix3d patch_projection = contact.condition == geometry::ContactCondition::bonded
                                                ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
                                                : Eigen::Matrix3d(d * d.transpose());
   const int volume_count = static_cast<int>(volume.points.size());
@@ -167,7 +167,7 @@ bool traction_load(const NodeCloud& cloud, const PatchQuadrature& surface, const
   return true;
 }
 
-bool prescribed_displacement_load(const NodeCloud& cloud, const Material& material, const PatchQuadrature& surface,
+bool prescribed_displacement_load(const NodeCloud& cloud, const geometry::Material& material, const PatchQuadrature& surface,
                                   const std::vector<Eigen::Vector3d>& displacement_m, const GalerkinSettings& settings,
                                   Eigen::VectorXd& load) {
   load.setZero(3 * static_cast<Eigen::Index>(cloud.size()));

@@ -1,3 +1,5 @@
+// The local model around a contact: sprinkle, build the chosen formulation, condense onto the
+// tool (K_t), and the paper's eqs. 7-9 in paper mode (one concept: the formulations' common path).
 #include "touchstone/realtime/mfs/local_model.hpp"
 
 #include <Eigen/Cholesky>
@@ -30,7 +32,7 @@ const char* to_string(MlsStatus status) {
 /// The paper's force in newtons (collocation rows are residuals, not forces): each patch node's
 /// traction rows scaled by its tributary area — the traction map on a nodal quadrature of the
 /// patch.
-bool patch_node_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+bool patch_node_map(const NodeCloud& cloud, const geometry::Material& material, const MlsSettings& mls,
                     const PatchQuadrature& patch, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
   PatchQuadrature nodes;
   const std::vector<double> area = tributary_areas(cloud, patch);
@@ -432,7 +434,7 @@ NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const Too
   return sprinkle_nodes(organ, contact, sprinkling);
 }
 
-LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const Material& material,
+LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const geometry::Material& material,
                              const LocalModelSettings& settings, const ClampedSurface& clamped,
                              const ExteriorStiffnessSource& exterior) {
   material.validate();

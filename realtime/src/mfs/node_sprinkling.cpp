@@ -265,7 +265,7 @@ class Sprinkler {
       case NodeKind::tool_patch:
         if (settings_.tip_node_only) {
           along_axes(Type::traction, false);
-        } else if (contact_.condition == PatchCondition::bonded) {
+        } else if (contact_.condition == geometry::ContactCondition::bonded) {
           along_axes(Type::dirichlet, true);
         } else {
           const auto [t1, t2] = tangents(d);

@@ -25,8 +25,8 @@ struct Helpers {
 };
 
 /// Sneddon's frictionless punch per unit depth, in the punch frame (local coordinates).
-PunchFieldSample sneddon_local(const Eigen::Vector3d& p, double a, const Material& material) {
-  const double nu = material.poisson_ratio, G = material.mu_Pa();
+PunchFieldSample sneddon_local(const Eigen::Vector3d& p, double a, const geometry::Material& material) {
+  const double nu = material.poisson_ratio, G = material.shear_modulus_Pa();
   const double r = std::hypot(p.x(), p.y()), z = p.z();
   const Helpers h(r, z, a);
   const double chi_z = -(1.0 / h.q).imag();
@@ -112,7 +112,7 @@ Eigen::Vector3d admissible(Eigen::Vector3d p, double a) {
 
 /// The tangential mode along local x with its stress from a second-order finite-difference
 /// gradient (step 1e-3 of the distance to the rim, one-sided near the free surface).
-PunchFieldSample tangential_local(const Eigen::Vector3d& p, double a, const Material& material) {
+PunchFieldSample tangential_local(const Eigen::Vector3d& p, double a, const geometry::Material& material) {
   const double nu = material.poisson_ratio;
   const auto u = [&](const Eigen::Vector3d& y) { return tangential_displacement(admissible(y, a), a, nu); };
   const double r = std::hypot(p.x(), p.y());
@@ -131,7 +131,7 @@ PunchFieldSample tangential_local(const Eigen::Vector3d& p, double a, const Mate
       gradient.col(j) = (u(p + e) - u(p - e)) / (2 * step);
   }
   const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
-  out.stress_Pa_per_m = material.lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * material.mu_Pa() * strain;
+  out.stress_Pa_per_m = material.lame_lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * material.shear_modulus_Pa() * strain;
   return out;
 }
 
@@ -151,7 +151,7 @@ PunchFrame PunchFrame::along(const Eigen::Vector3d& origin, const Eigen::Vector3
   return frame;
 }
 
-PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const Material& material,
+PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const geometry::Material& material,
                              const Eigen::Vector3d& x) noexcept {
   const Eigen::Matrix3d& R = frame.axes;
   Eigen::Vector3d local = R.transpose() * (x - frame.origin);
@@ -167,8 +167,8 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
   return sample;
 }
 
-double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const Material& material) noexcept {
-  const double G = material.mu_Pa(), nu = material.poisson_ratio;
+double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept {
+  const double G = material.shear_modulus_Pa(), nu = material.poisson_ratio;
   return mode == PunchMode::normal ? 4 * G * radius_m / (1 - nu) : 8 * G * radius_m / (2 - nu);
 }
 

@@ -141,9 +141,9 @@ PatchQuadrature volume_quadrature(const geometry::TriangleSurface& organ, const 
   return q;
 }
 
-bool strain_energy(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+bool strain_energy(const NodeCloud& cloud, const geometry::Material& material, const MlsSettings& mls,
                    const PatchQuadrature& volume, const Eigen::VectorXd& parameters, double& energy_J) {
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   MlsEvaluation scratch;
   double energy = 0;
   for (std::size_t p = 0; p < volume.points.size(); ++p) {
@@ -201,9 +201,9 @@ PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const T
   return q;
 }
 
-bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+bool surface_traction_map(const NodeCloud& cloud, const geometry::Material& material, const MlsSettings& mls,
                           const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map) {
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   map.setZero(3, 3 * static_cast<Eigen::Index>(cloud.size()));
   MlsEvaluation evaluation;
   static const std::vector<int> all_nodes;

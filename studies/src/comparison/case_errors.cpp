@@ -30,7 +30,7 @@ json problem_json(const ComparisonProblem& p) {
           {"contact_polar_angle_rad", p.contact_polar_angle_rad},
           {"youngs_modulus_Pa", p.material.youngs_modulus_Pa},
           {"poisson_ratio", p.material.poisson_ratio},
-          {"contact", fem::to_string(p.contact)},
+          {"contact", geometry::to_string(p.contact)},
           {"direction", vector_json(p.direction.normalized())},
           {"angle_to_normal_rad", json_number(p.angle_to_normal_rad())},
           {"contact_point_m", vector_json(contact_point(g))},
@@ -75,7 +75,7 @@ json problem_notes(const ComparisonProblem& p) {
     notes.push_back({{"id", "grazing"},
                      {"text", "the tool direction is " + format_number(std::round(p.angle_to_normal_rad() * 1800 / M_PI) / 10) +
                                   " deg from the inward normal (grazing); both models prescribe " +
-                                  std::string(p.contact == fem::Contact::bonded ? "u = δ d on the patch" : "u·d = δ on the patch (frictionless)")}});
+                                  std::string(p.contact == geometry::ContactCondition::bonded ? "u = δ d on the patch" : "u·d = δ on the patch (frictionless)")}});
   return notes;
 }
 

@@ -89,7 +89,7 @@ MfsSeries read_series(const std::string& path, const std::string& name, const to
   const Eigen::Vector3d& d = problem.direction;
   t.insert_or_assign("tool", toml::table{{"depth", problem.max_depth_m()},
                                          {"direction", toml::array{d[0], d[1], d[2]}},
-                                         {"contact", fem::to_string(problem.contact)}});
+                                         {"contact", geometry::to_string(problem.contact)}});
   std::ostringstream text;
   text << t << "\n";
   MfsSeries series;
@@ -208,7 +208,7 @@ ComparisonProblem read_problem(ConfigTable& problem) {
   p.contact_polar_angle_rad = problem.quantity("contact_polar_angle", Dimension::angle, 0.0);
   p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
   p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
-  p.contact = fem::contact_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
+  p.contact = geometry::contact_condition_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
   // The direction: given, or the inward normal tilted by `tilt` toward the base in the
   // meridian plane (e_θ = (cos θ, 0, −sin θ)); at the pole with no tilt exactly (0, 0, −1).
   if (problem.has("direction") && problem.has("tilt"))

@@ -32,7 +32,7 @@ Eigen::Vector3d json_vector(const json& j) { return {j.at(0).get<double>(), j.at
 /// One problem of the study: the study's settings with one value of each sweep.
 struct Problem {
   meshes::MeshParameters geometry;
-  fem::Material material;
+  geometry::Material material;
   fem::RigidPunch punch;
   std::string physical_id;  ///< "B2-frictionless-nu0.45-R0.05": the problem, whatever the mesh
   std::string id;           ///< physical_id, plus "-F<n>" when several mesh families are run
@@ -47,7 +47,7 @@ std::vector<Problem> expand(const ReferenceStudy& study) {
   std::vector<Problem> problems;
   for (const double radius : or_single(study.body_radii_m, study.geometry.body_radius_m))
     for (const double nu : or_single(study.poisson_ratios, study.material.poisson_ratio))
-      for (const fem::Contact contact : or_single(study.contacts, study.punch.contact))
+      for (const geometry::ContactCondition contact : or_single(study.contacts, study.punch.contact))
         for (std::size_t family = 0; family < families.size(); ++family) {
           Problem p{study.geometry, study.material, study.punch, "", ""};
           p.geometry.body_radius_m = radius;
@@ -56,7 +56,7 @@ std::vector<Problem> expand(const ReferenceStudy& study) {
             p.geometry.max_size_m = std::max(study.geometry.max_size_m, radius / 4);
           p.material.poisson_ratio = nu;
           p.punch.contact = contact;
-          p.physical_id = meshes::to_string(p.geometry.benchmark) + "-" + fem::to_string(contact) + "-nu" +
+          p.physical_id = meshes::to_string(p.geometry.benchmark) + "-" + geometry::to_string(contact) + "-nu" +
                           format_number(nu) + "-" + (p.geometry.benchmark == meshes::Benchmark::B1 ? "W" : "R") +
                           format_number(radius);
           p.id = families.size() > 1 ? p.physical_id + "-F" + std::to_string(family + 1) : p.physical_id;
@@ -72,7 +72,7 @@ json problem_params(const Problem& p, const fem::SolverParameters& solver) {
   params["poisson_ratio"] = p.material.poisson_ratio;
   params["depth_m"] = p.punch.depth_m;
   params["direction"] = vector_json(p.punch.direction.normalized());
-  params["contact"] = fem::to_string(p.punch.contact);
+  params["contact"] = geometry::to_string(p.punch.contact);
   params["degree"] = solver.degree;
   params["solver"] = fem::to_string(solver.solver);
   params["relative_tolerance"] = solver.relative_tolerance;
@@ -325,7 +325,7 @@ class Runner {
       if (!listed)
         cases.push_back({{"id", analytic_id},
                        {"model", "analytic"},
-                       {"params", {{"formula", problem.punch.contact == fem::Contact::frictionless
+                       {"params", {{"formula", problem.punch.contact == geometry::ContactCondition::frictionless
                                                    ? "Sneddon F = 2 E a delta / (1 - nu^2)"
                                                    : "Mossakovskii F = 4 G a delta ln(3 - 4 nu) / (1 - 2 nu)"},
                                    {"youngs_modulus_Pa", e},
@@ -438,7 +438,7 @@ class Runner {
               {problem.geometry.tool_radius_m / problem.geometry.body_radius_m, c.at("qoi").at("ratio_to_half_space").get<double>()});
     }
     for (const auto& [key, points] : series) {
-      json entry{{"contact", fem::to_string(static_cast<fem::Contact>(key.first))}, {"poisson_ratio", key.second}};
+      json entry{{"contact", geometry::to_string(static_cast<geometry::ContactCondition>(key.first))}, {"poisson_ratio", key.second}};
       json xs = json::array(), ys = json::array();
       for (const auto& [x, y] : points) {
         xs.push_back(x);
@@ -486,10 +486,10 @@ class Runner {
 
 }  // namespace
 
-double half_space_punch_force_N(const fem::Material& material, double tool_radius_m, double depth_m,
-                                fem::Contact contact) {
+double half_space_punch_force_N(const geometry::Material& material, double tool_radius_m, double depth_m,
+                                geometry::ContactCondition contact) {
   const double e = material.youngs_modulus_Pa, nu = material.poisson_ratio;
-  if (contact == fem::Contact::frictionless) return 2 * e * tool_radius_m * depth_m / (1 - nu * nu);
+  if (contact == geometry::ContactCondition::frictionless) return 2 * e * tool_radius_m * depth_m / (1 - nu * nu);
   return 4 * material.shear_modulus_Pa() * tool_radius_m * depth_m * std::log(3 - 4 * nu) / (1 - 2 * nu);
 }
 
@@ -504,7 +504,7 @@ void ReferenceStudy::validate() const {
     if (refinements[i] != refinements[i - 1] + 1)
       throw std::invalid_argument("mesh.refinements must be consecutive levels (each halves the size), e.g. [0, 1, 2]");
   for (const double nu : poisson_ratios) {
-    fem::Material m = material;
+    geometry::Material m = material;
     m.poisson_ratio = nu;
     m.validate();
   }

@@ -50,7 +50,7 @@ ReferenceStudy read_reference_study(ConfigTable& config) {
   study.punch.depth_m = tool.quantity("depth", Dimension::length, 0.1 * study.geometry.tool_radius_m);
   const auto direction = tool.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
   study.punch.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
-  study.punch.contact = fem::contact_from_string(tool.choice("contact", {"frictionless", "bonded"}, "frictionless"));
+  study.punch.contact = geometry::contact_condition_from_string(tool.choice("contact", {"frictionless", "bonded"}, "frictionless"));
 
   ConfigTable solver = config.table("solver");
   study.solver.degree = static_cast<unsigned int>(solver.integer("degree", study.solver.degree));
@@ -67,7 +67,7 @@ ReferenceStudy read_reference_study(ConfigTable& config) {
 
   ConfigTable sweep = config.table("sweep");
   for (const auto& contact : sweep.choice_list("contact", {"frictionless", "bonded"}, {}))
-    study.contacts.push_back(fem::contact_from_string(contact));
+    study.contacts.push_back(geometry::contact_condition_from_string(contact));
   study.poisson_ratios = sweep.quantity_list("poisson_ratio", Dimension::dimensionless, {});
   study.body_radii_m = sweep.quantity_list("body_radius", Dimension::length, {});
   finish_and_validate(config, study);

@@ -4,6 +4,7 @@
 /// surface, meshed once per process, and the frictionless punch (a = 2.5 mm) at its pole.
 
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 
@@ -26,14 +27,14 @@ inline const geometry::TriangleSurface& hemisphere() {
     // One file per process: ctest -j runs each test case in its own process, all in one folder.
     const std::string path = "test_hemisphere_" + std::to_string(::getpid()) + ".msh";
     meshes::generate_mesh(g, path);
-    geometry::TriangleSurface loaded = geometry::TriangleSurface::from_msh(path);
+    geometry::TriangleSurface loaded = meshes::load_msh_surface(path);
     std::remove(path.c_str());
     return loaded;
   }();
   return surface;
 }
 
-inline ToolContact pole_contact(PatchCondition condition = PatchCondition::frictionless) {
+inline ToolContact pole_contact(geometry::ContactCondition condition = geometry::ContactCondition::frictionless) {
   ToolContact contact;
   contact.point = {0.0, 0.0, hemisphere_radius_m};
   contact.radius_m = tool_radius_m;

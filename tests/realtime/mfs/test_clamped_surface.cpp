@@ -4,6 +4,7 @@
 // base in the Galerkin model — stiffer than leaving it free, and the tool's force balanced by
 // the reaction of the cut and the base together — while collocation refuses it with a status.
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/clamped_surface.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
@@ -39,7 +40,7 @@ const Hemisphere& hemisphere() {
     meshes::SurfaceReadOptions base_only;
     base_only.msh_groups = {"base"};
     const meshes::SurfaceMesh base = meshes::read_surface_mesh(path, base_only);
-    Hemisphere result{geometry::TriangleSurface::from_msh(path), ClampedSurface{base.vertices, base.triangles}};
+    Hemisphere result{meshes::load_msh_surface(path), ClampedSurface{base.vertices, base.triangles}};
     std::remove(path.c_str());
     return result;
   }();
@@ -99,7 +100,7 @@ TEST(ClampedLocalModel, NearTheBaseTheBaseIsHeldAndJoinsTheReaction) {
   settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 100;
   settings.sprinkling.local_radius_m = local_radius_m;
-  const Material material{10.0e3, 0.45};
+  const geometry::Material material{10.0e3, 0.45};
   const LocalModel free_base = build_local_model(h.organ, contact, material, settings);
   const LocalModel held = build_local_model(h.organ, contact, material, settings, h.base);
   ASSERT_TRUE(free_base.ok()) << free_base.status;
@@ -131,7 +132,7 @@ TEST(ClampedLocalModel, AtThePoleTheBaseChangesNothing) {
   LocalModelSettings settings;
   settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 35;
-  const Material material{10.0e3, 0.45};
+  const geometry::Material material{10.0e3, 0.45};
   const LocalModel plain = build_local_model(h.organ, contact_at(0), material, settings);
   const LocalModel held = build_local_model(h.organ, contact_at(0), material, settings, h.base);
   ASSERT_TRUE(held.ok()) << held.status;

@@ -3,6 +3,7 @@
 // solution is in the trial space, so the punch force is the closed form at every N.
 #include "hemisphere_fixture.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
@@ -32,14 +33,14 @@ const geometry::TriangleSurface& flat_body() {
     g.max_size_m = length;
     const std::string path = "test_enriched_flat_" + std::to_string(::getpid()) + ".msh";
     meshes::generate_mesh(g, path);
-    geometry::TriangleSurface loaded = geometry::TriangleSurface::from_msh(path);
+    geometry::TriangleSurface loaded = meshes::load_msh_surface(path);
     std::remove(path.c_str());
     return loaded;
   }();
   return surface;
 }
 
-ToolContact top_contact(PatchCondition condition) {
+ToolContact top_contact(geometry::ContactCondition condition) {
   ToolContact contact;
   contact.point = Eigen::Vector3d::Zero();
   contact.radius_m = a;
@@ -53,7 +54,7 @@ struct Built {
 };
 
 Built build(const geometry::TriangleSurface& organ, const ToolContact& contact, int nodes, ExteriorCondition exterior,
-            const Material& material = {}, std::uint64_t seed = 1) {
+            const geometry::Material& material = {}, std::uint64_t seed = 1) {
   Built out;
   const LocalSurface surface(organ, contact.point, 1.3 * length);
   out.cloud = sprinkle_even_nodes(surface, contact, nodes, length, seed);
@@ -71,10 +72,10 @@ Built build(const geometry::TriangleSurface& organ, const ToolContact& contact, 
 // The exact solution (ψ with amplitude 1, no MLS part) is in the trial space and every term of
 // the discrete equations that it touches is integrated by the same quadrature on both sides.
 TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
-  const Material material;
+  const geometry::Material material;
   const double exact = punch_half_space_stiffness_N_per_m(PunchMode::normal, a, material);
   for (const int nodes : {20, 35, 60, 100, 200, 400}) {
-    const Built b = build(flat_body(), top_contact(PatchCondition::frictionless), nodes, ExteriorCondition::half_space);
+    const Built b = build(flat_body(), top_contact(geometry::ContactCondition::frictionless), nodes, ExteriorCondition::half_space);
     ASSERT_TRUE(b.model.ok()) << b.model.status;
     std::printf("half-space, frictionless: N = %zu  k/k_exact - 1 = %+.1e\n", b.cloud.size(),
                 b.model.tool_stiffness_N_per_m(2, 2) / exact - 1);
@@ -88,10 +89,10 @@ TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
 // carry it: within 1 % once it resolves the patch (asserted from N = 100; the smaller N are
 // printed, for the README).
 TEST(EnrichedGalerkin, HalfSpaceStuckTangentialForceWithinOnePercent) {
-  const Material material;
+  const geometry::Material material;
   const double exact = punch_half_space_stiffness_N_per_m(PunchMode::tangential_1, a, material);
   for (const int nodes : {20, 35, 60, 100, 200, 400}) {
-    const Built b = build(flat_body(), top_contact(PatchCondition::bonded), nodes, ExteriorCondition::half_space);
+    const Built b = build(flat_body(), top_contact(geometry::ContactCondition::bonded), nodes, ExteriorCondition::half_space);
     ASSERT_TRUE(b.model.ok()) << b.model.status;
     const double kxx = b.model.tool_stiffness_N_per_m(0, 0) / exact - 1, kyy = b.model.tool_stiffness_N_per_m(1, 1) / exact - 1;
     std::printf("half-space, stuck tangential: N = %zu  k_xx %+.2f %%  k_yy %+.2f %%\n", b.cloud.size(), 100 * kxx, 100 * kyy);
@@ -121,11 +122,11 @@ TEST(EnrichedGalerkin, HemisphereLocalDomainMatchesItsFem) {
 // edges cross the box), so tensor Gauss converges slowly: with 20 points per direction the two
 // forms agree to 8e-4 of the largest coupling (asserted: 2e-3).
 TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
-  const ToolContact contact = top_contact(PatchCondition::frictionless);
+  const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
   NodeCloud cloud = sprinkle_even_nodes(flat_body(), contact, 60, length, 1);
   PatchQuadrature none;
   cloud.radii = enriched_support_radii(cloud.positions, {&none}, 12, 14);
-  const Material material;
+  const geometry::Material material;
   const PunchFrame frame = PunchFrame::along(Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, -1));
   const Eigen::Vector3d low(0.5 * a, -a, -3 * a), high(2.5 * a, a, -a);
   const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};
@@ -160,9 +161,9 @@ TEST(EnrichedLocalModel, BadInputIsNamedAndHardContactsEndInAStatus) {
   LocalModelSettings settings;  // the enriched default
   settings.sprinkling.node_count = 30;
   settings.sprinkling.local_radius_m = length;
-  const ToolContact contact = top_contact(PatchCondition::frictionless);
+  const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
   // ν = 0.5 and a tool wider than L/2.
-  Material incompressible;
+  geometry::Material incompressible;
   incompressible.poisson_ratio = 0.5;
   try {
     build_local_model(flat_body(), contact, incompressible, settings);
@@ -173,7 +174,7 @@ TEST(EnrichedLocalModel, BadInputIsNamedAndHardContactsEndInAStatus) {
   ToolContact wide = contact;
   wide.radius_m = 0.6 * length;
   try {
-    build_local_model(flat_body(), wide, Material{}, settings);
+    build_local_model(flat_body(), wide, geometry::Material{}, settings);
     ADD_FAILURE() << "a tool radius > L/2 accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("radius_m"), std::string::npos) << e.what();
@@ -183,29 +184,29 @@ TEST(EnrichedLocalModel, BadInputIsNamedAndHardContactsEndInAStatus) {
   for (const double offset : {0.5, 0.8, 0.95}) {
     ToolContact edge = contact;
     edge.point = Eigen::Vector3d(offset * 8 * length, 0, 0);
-    const LocalModel model = build_local_model(flat_body(), edge, Material{}, settings);
+    const LocalModel model = build_local_model(flat_body(), edge, geometry::Material{}, settings);
     if (model.ok())
       EXPECT_TRUE(model.tool_stiffness_N_per_m.allFinite()) << "offset " << offset;
     else
       EXPECT_FALSE(model.status.empty());
   }
   // body_aware without an answer from the atlas: the half-space exterior, and the model says so.
-  const ExteriorStiffnessSource no_sample = [](const ToolContact&, double, const Material&, int, Eigen::MatrixXd&,
+  const ExteriorStiffnessSource no_sample = [](const ToolContact&, double, const geometry::Material&, int, Eigen::MatrixXd&,
                                                std::string& why) {
     why = "no atlas sample within 12.5 mm of the contact";
     return false;
   };
-  const LocalModel fallback = build_local_model(flat_body(), contact, Material{}, settings, {}, no_sample);
+  const LocalModel fallback = build_local_model(flat_body(), contact, geometry::Material{}, settings, {}, no_sample);
   ASSERT_TRUE(fallback.ok()) << fallback.status;
   EXPECT_EQ(fallback.exterior_used, "half_space");
   EXPECT_EQ(fallback.exterior_note, "no atlas sample within 12.5 mm of the contact");
   // …and with one, the body-aware exterior it gives: twice the half-space's exterior stiffens.
-  const ExteriorStiffnessSource stiff = [](const ToolContact&, double, const Material&, int modes, Eigen::MatrixXd& k,
+  const ExteriorStiffnessSource stiff = [](const ToolContact&, double, const geometry::Material&, int modes, Eigen::MatrixXd& k,
                                            std::string&) {
-    k = Eigen::MatrixXd::Identity(modes, modes) * 2 * 14.49 * (Material{}.youngs_modulus_Pa / 1e4);
+    k = Eigen::MatrixXd::Identity(modes, modes) * 2 * 14.49 * (geometry::Material{}.youngs_modulus_Pa / 1e4);
     return true;
   };
-  const LocalModel body = build_local_model(flat_body(), contact, Material{}, settings, {}, stiff);
+  const LocalModel body = build_local_model(flat_body(), contact, geometry::Material{}, settings, {}, stiff);
   ASSERT_TRUE(body.ok()) << body.status;
   EXPECT_EQ(body.exterior_used, "body_aware");
   EXPECT_GT(body.tool_stiffness_N_per_m(2, 2), 1.02 * fallback.tool_stiffness_N_per_m(2, 2));

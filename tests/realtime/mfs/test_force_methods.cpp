@@ -36,7 +36,7 @@ using testing::tool_radius_m;
 
 TEST(ForceMethods, AllFourApproachTheReferenceAsNodesAreAdded) {
   const ToolContact contact = pole_contact();
-  const Material material{10.0e3, 0.45};
+  const geometry::Material material{10.0e3, 0.45};
   std::vector<double> worst, spread_N;
   for (const int n : {100, 200, 400}) {
     LocalModelSettings settings;

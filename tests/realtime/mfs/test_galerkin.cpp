@@ -34,11 +34,11 @@ LocalModelSettings galerkin_settings(int node_count) {
 
 TEST(Galerkin, StiffnessIsSymmetricAndTheToolBalancesTheCut) {
   for (const Constraint constraint : {Constraint::penalty, Constraint::nitsche})
-  for (const PatchCondition condition : {PatchCondition::frictionless, PatchCondition::bonded}) {
+  for (const geometry::ContactCondition condition : {geometry::ContactCondition::frictionless, geometry::ContactCondition::bonded}) {
     SCOPED_TRACE(to_string(constraint));
     LocalModelSettings settings = galerkin_settings(60);
     settings.galerkin.constraint = constraint;
-    const LocalModel model = build_local_model(hemisphere(), pole_contact(condition), Material{}, settings);
+    const LocalModel model = build_local_model(hemisphere(), pole_contact(condition), geometry::Material{}, settings);
     ASSERT_TRUE(model.ok()) << model.status;
     const Eigen::MatrixXd& k = model.galerkin.stiffness;
     EXPECT_LT((k - k.transpose()).norm(), 1e-12 * k.norm());
@@ -63,7 +63,7 @@ TEST(Galerkin, PatchNodeRowsAreTheConstraintTractionWeightedByTheirShapeFunction
   // solution, (K_el U)_a, is ∫_patch h_a λ dA with λ = α P (U_tool − u_h) the penalty traction —
   // computed here independently from the patch quadrature and the MLS values.
   const LocalModelSettings settings = galerkin_settings(100);
-  const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+  const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
   ASSERT_TRUE(model.ok()) << model.status;
   const Eigen::Vector3d push = depth_m * pole_contact().direction;
   const LocalSolution solution = solve_local_model(model, push);
@@ -112,7 +112,7 @@ TEST(Galerkin, ForceConvergesToTheFemFromAbove) {
   // N ≈ 800).
   std::vector<double> reaction, energy;
   for (const int n : {34, 100, 400}) {
-    const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, galerkin_settings(n));
+    const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, galerkin_settings(n));
     ASSERT_TRUE(model.ok()) << model.status;
     const LocalSolution solution = solve_local_model(model, depth_m * pole_contact().direction);
     ASSERT_EQ(solution.status, "ok");

@@ -161,7 +161,7 @@ TEST(LocalModelDegenerate, CoplanarNodesAreSingularMoments) {
       cloud.rows.push_back(rows);
       cloud.spacing.push_back(h);
     }
-  const Material material;
+  const geometry::Material material;
   for (const Basis basis : {Basis::quadratic, Basis::linear})
     for (const double growth : {1.0, 2.0}) {
       SCOPED_TRACE(::testing::Message() << "basis " << basis_size(basis) << " growth " << growth);
@@ -186,7 +186,7 @@ TEST(LocalModelDegenerate, CoplanarNodesAreSingularMoments) {
 // tiny, non-zero pivots) and its answer is wrong by orders of magnitude, so the solve's residual
 // check must refuse it rather than report it as fine.
 TEST(LocalModelDegenerate, DuplicateNodesAreReportedOrHarmlessNeverNaN) {
-  const Material material;
+  const geometry::Material material;
   NodeCloud cloud = box_cloud(5, 2.6);
   const int interior = 2 * 25 + 2 * 5 + 2;  // the centre node
   duplicate_node(cloud, interior);
@@ -226,7 +226,7 @@ TEST(LocalModelDegenerate, DuplicateNodesAreReportedOrHarmlessNeverNaN) {
 // A node far from every other one has only itself in its support: too few nodes there, and the
 // status names it. With tiny radii everywhere the very first node fails.
 TEST(LocalModelDegenerate, TooFewNodesNamesTheNode) {
-  const Material material;
+  const geometry::Material material;
   CollocationSettings settings;
   {
     NodeCloud cloud = box_cloud(5, 2.6);
@@ -253,7 +253,7 @@ TEST(LocalModelDegenerate, TooFewNodesNamesTheNode) {
 // than the 10 quadratic terms. Growth up to 2× rescues it, and the rescued system is still
 // consistent (it reproduces the affine field).
 TEST(LocalModelDegenerate, AdaptiveGrowthRescuesSmallSupports) {
-  const Material material;
+  const geometry::Material material;
   const NodeCloud cloud = box_cloud(6, 1.6);
   CollocationSettings settings;
   settings.mls.max_support_scale = 1;
@@ -277,7 +277,7 @@ TEST(LocalModelDegenerate, AdaptiveGrowthRescuesSmallSupports) {
 TEST(LocalModelDegenerate, InvalidMaterialIsNamed) {
   const LocalModelSettings settings = small_settings();
   const auto build = [&](double e, double nu) {
-    return [&settings, e, nu] { build_local_model(hemisphere(), pole_contact(), Material{e, nu}, settings); };
+    return [&settings, e, nu] { build_local_model(hemisphere(), pole_contact(), geometry::Material{e, nu}, settings); };
   };
   expect_invalid_argument_naming(build(10e3, 0.5), "poisson_ratio");
   expect_invalid_argument_naming(build(10e3, 0.6), "poisson_ratio");
@@ -295,14 +295,14 @@ TEST(LocalModelDegenerate, InvalidMaterialIsNamed) {
 TEST(LocalModelDegenerate, NearlyIncompressibleForcesAreFinite) {
   const LocalModelSettings settings = small_settings();
   const Eigen::Vector3d push = 1e-4 * pole_contact().direction;
-  const LocalModel reference = build_local_model(hemisphere(), pole_contact(), Material{10e3, 0.45}, settings);
+  const LocalModel reference = build_local_model(hemisphere(), pole_contact(), geometry::Material{10e3, 0.45}, settings);
   ASSERT_TRUE(reference.ok()) << reference.status;
   const LocalSolution at_045 = solve_local_model(reference, push);
   ASSERT_EQ(at_045.status, "ok");
   const double f_045 = at_045.forces.haptic_N.dot(pole_contact().direction);
   for (const double nu : {0.499, 0.49999}) {
     SCOPED_TRACE(nu);
-    const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{10e3, nu}, settings);
+    const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{10e3, nu}, settings);
     if (!model.ok()) {
       // Least squares squares the condition number: at λ/μ = 5·10⁴ the normal equations may
       // be refused, which must say so.
@@ -330,7 +330,7 @@ TEST(LocalModelDegenerate, NearlyIncompressibleForcesAreFinite) {
 }
 
 TEST(LocalModelDegenerate, NanCoordinatesAreReported) {
-  const Material material;
+  const geometry::Material material;
   // A node with a NaN coordinate (or radius): every collocation point sees an invalid candidate.
   for (const bool radius : {false, true}) {
     NodeCloud cloud = box_cloud(4, 2.6);
@@ -360,7 +360,7 @@ TEST(LocalModelDegenerate, NanCoordinatesAreReported) {
 }
 
 TEST(LocalModelDegenerate, InvalidSettingsAreNamed) {
-  const Material material;
+  const geometry::Material material;
   const auto expect_named = [&](const LocalModelSettings& settings, const std::string& field) {
     SCOPED_TRACE(field);
     expect_invalid_argument_naming([&] { settings.validate(); }, field);
@@ -400,7 +400,7 @@ TEST(LocalModel, ToolStiffnessIsTheCondensation) {
   LocalModelSettings settings = small_settings();
   settings.force.haptic_method = ForceMethod::traction_integral;  // K_t through the traction map
   settings.sprinkling.oversampling = 1;  // square: K p = f holds row by row
-  const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+  const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
   ASSERT_TRUE(model.ok()) << model.status;
   const Eigen::Index n = static_cast<Eigen::Index>(model.cloud.size());
   EXPECT_NEAR(static_cast<double>(n), 60.0, 15.0);
@@ -463,7 +463,7 @@ TEST(LocalModel, LeastSquaresToolStiffnessIsPositive) {
     LocalModelSettings settings = small_settings();
     settings.sprinkling.node_count = n;
     settings.force.reaction = false;
-    const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+    const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
     ASSERT_TRUE(model.ok()) << model.status;
     const Eigen::Vector3d d = pole_contact().direction;
     const double stiffness = d.dot(model.tool_stiffness_N_per_m * d);
@@ -477,7 +477,7 @@ TEST(LocalModel, LeastSquaresToolStiffnessIsPositive) {
 
 TEST(LocalModel, PaperModeSolvesEquation7) {
   const LocalModelSettings settings = paper_settings();
-  const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+  const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
   ASSERT_TRUE(model.ok()) << model.status;
   const int n = static_cast<int>(model.cloud.size());
   std::printf("  paper mode: N = %d nodes\n", n);
@@ -528,7 +528,7 @@ TEST(LocalModel, PaperModeSolvesEquation7) {
 TEST(LocalModel, LeastSquaresCollocationReportsItsMisfit) {
   LocalModelSettings settings = small_settings();
   settings.sprinkling.oversampling = 3;
-  const LocalModel model = build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+  const LocalModel model = build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
   ASSERT_TRUE(model.ok()) << model.status;
   const Eigen::Index n = static_cast<Eigen::Index>(model.cloud.size());
   const auto& k = model.system.stiffness;

@@ -86,14 +86,14 @@ TEST(Sprinkling, RowsFollowTheContactCondition) {
   SprinklingSettings settings;
   settings.node_count = 60;
   ToolContact contact = pole_contact();
-  contact.condition = PatchCondition::frictionless;
+  contact.condition = geometry::ContactCondition::frictionless;
   const NodeCloud frictionless = sprinkle_nodes(hemisphere(), contact, settings);
   // Tip node: u·d prescribed through the tool column, two tangential traction rows.
   EXPECT_EQ(frictionless.rows[0][0].type, CollocationRow::Type::dirichlet);
   EXPECT_EQ(frictionless.rows[0][0].tool, contact.direction);
   EXPECT_EQ(frictionless.rows[0][1].type, CollocationRow::Type::traction);
   EXPECT_NEAR(frictionless.rows[0][1].direction.dot(contact.direction), 0.0, 1e-15);
-  contact.condition = PatchCondition::bonded;
+  contact.condition = geometry::ContactCondition::bonded;
   const NodeCloud bonded = sprinkle_nodes(hemisphere(), contact, settings);
   for (int k = 0; k < 3; ++k) EXPECT_EQ(bonded.rows[0][k].tool, Eigen::Vector3d::Unit(k));
 }
@@ -127,7 +127,7 @@ const geometry::TriangleSurface& cylinder() {
     g.max_size_m = 0.004;
     const std::string path = "sprinkling_cylinder_" + std::to_string(getpid()) + ".msh";
     meshes::generate_mesh(g, path);
-    geometry::TriangleSurface surface = geometry::TriangleSurface::from_msh(path);
+    geometry::TriangleSurface surface = meshes::load_msh_surface(path);
     std::remove(path.c_str());
     return surface;
   }();

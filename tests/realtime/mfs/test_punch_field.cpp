@@ -47,15 +47,15 @@ const OracleSample oracle[] = {
 };
 
 /// ν = 0.45 and G = 1 Pa.
-Material unit_material() {
-  Material m;
+geometry::Material unit_material() {
+  geometry::Material m;
   m.poisson_ratio = 0.45;
   m.youngs_modulus_Pa = 2 * (1 + m.poisson_ratio);
   return m;
 }
 
 TEST(PunchField, NormalModeMatchesTheOracle) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   for (const OracleSample& s : oracle) {
     const Eigen::Vector3d x(s.x[0], s.x[1], s.x[2]);
     const PunchFieldSample f = punch_field(PunchMode::normal, PunchFrame{}, 1.0, material, x);
@@ -70,7 +70,7 @@ TEST(PunchField, NormalModeMatchesTheOracle) {
 }
 
 TEST(PunchField, TangentialModeMatchesTheOracle) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   for (const OracleSample& s : oracle) {
     const Eigen::Vector3d x(s.x[0], s.x[1], s.x[2]);
     const PunchFieldSample f = punch_field(PunchMode::tangential_1, PunchFrame{}, 1.0, material, x);
@@ -79,7 +79,7 @@ TEST(PunchField, TangentialModeMatchesTheOracle) {
 }
 
 TEST(PunchField, NearTheAxisTheSeriesContinueTheClosedForms) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1}) {
     const PunchFieldSample on = punch_field(mode, PunchFrame{}, 1.0, material, {2e-4, 1e-4, 0.4});
     const PunchFieldSample off = punch_field(mode, PunchFrame{}, 1.0, material, {2e-3, 1e-3, 0.4});
@@ -90,7 +90,7 @@ TEST(PunchField, NearTheAxisTheSeriesContinueTheClosedForms) {
 }
 
 /// ∫_disk σ(ψ) e_z dA by Gauss–Legendre in t with r = sin t (the rim's (1 − r²)^(−½) absorbed).
-Eigen::Vector3d disk_traction_resultant(PunchMode mode, const Material& material) {
+Eigen::Vector3d disk_traction_resultant(PunchMode mode, const geometry::Material& material) {
   std::vector<double> x, w;
   gauss_legendre(24, x, w);
   Eigen::Vector3d total = Eigen::Vector3d::Zero();
@@ -106,7 +106,7 @@ Eigen::Vector3d disk_traction_resultant(PunchMode mode, const Material& material
 }
 
 TEST(PunchField, ResultantsAreTheHalfSpaceStiffnesses) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   // The tissue pulls the punch back: σ·e_z on the face = −(force on the tissue).
   const Eigen::Vector3d normal = disk_traction_resultant(PunchMode::normal, material);
   EXPECT_NEAR(-normal.z() / punch_half_space_stiffness_N_per_m(PunchMode::normal, 1.0, material), 1.0, 1e-6);
@@ -116,7 +116,7 @@ TEST(PunchField, ResultantsAreTheHalfSpaceStiffnesses) {
 }
 
 TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2})
     for (const double r : {1.2, 2.0, 4.0}) {
       const PunchFieldSample f = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.0});
@@ -127,7 +127,7 @@ TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
 
 TEST(PunchField, StressesAreInEquilibrium) {
   // div σ = 0 by central differences of the returned stress.
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   const double h = 1e-5;
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1})
     for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
@@ -147,8 +147,8 @@ TEST(PunchField, StressesAreInEquilibrium) {
 /// ∮_∂V ψ_n·σ(ψ_m)n dA, because div σ(ψ) = 0. Checked on a box away from the rim by tensor
 /// Gauss rules (the integrands are smooth there).
 TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
-  const Material material = unit_material();
-  const double lambda = material.lambda_Pa(), mu = material.mu_Pa();
+  const geometry::Material material = unit_material();
+  const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   const Eigen::Vector3d low(0.4, -0.6, 0.8), high(1.7, 0.5, 2.0);
   const auto strain_of = [&](const Eigen::Matrix3d& stress) {
     return Eigen::Matrix3d((stress - lambda / (3 * lambda + 2 * mu) * stress.trace() * Eigen::Matrix3d::Identity()) / (2 * mu));
@@ -178,7 +178,7 @@ TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
 }
 
 TEST(PunchField, AFrameRotatesTheField) {
-  const Material material = unit_material();
+  const geometry::Material material = unit_material();
   const Eigen::Vector3d origin(0.1, -0.2, 0.3), direction = Eigen::Vector3d(0.3, -0.2, -1.0).normalized();
   const PunchFrame frame = PunchFrame::along(origin, direction);
   EXPECT_NEAR((frame.axes.transpose() * frame.axes - Eigen::Matrix3d::Identity()).norm(), 0, 1e-14);

@@ -78,7 +78,7 @@ TEST(ExtractionQuadrature, TheDomainFormOfAConstantStressIsItsBoundaryIntegral) 
   settings.formulation = Formulation::galerkin;
   settings.sprinkling.node_count = 35;
   settings.force.energy = false;
-  const Material material{10.0e3, 0.45};
+  const geometry::Material material{10.0e3, 0.45};
   const LocalModel model = build_local_model(hemisphere(), pole_contact(), material, settings);
   ASSERT_TRUE(model.ok()) << model.status;
   Eigen::Matrix3d gradient;
@@ -87,7 +87,7 @@ TEST(ExtractionQuadrature, TheDomainFormOfAConstantStressIsItsBoundaryIntegral) 
   for (std::size_t j = 0; j < model.cloud.size(); ++j) parameters.segment<3>(3 * j) = gradient * model.cloud.positions[j];
   const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
   const Eigen::Matrix3d stress =
-      material.lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * material.mu_Pa() * strain;
+      material.lame_lambda_Pa() * strain.trace() * Eigen::Matrix3d::Identity() + 2 * material.shear_modulus_Pa() * strain;
   const PatchQuadrature shell =
       extraction_quadrature(hemisphere(), pole_contact(), settings.force.extraction_inner_tool_radii * tool_radius_m,
                             settings.force.extraction_outer_local_radii * settings.sprinkling.local_radius_m,
@@ -106,7 +106,7 @@ TEST(ExtractionQuadrature, AnEmptyShellIsRefusedBeforeTheBuildNamingBothFactors)
   settings.formulation = Formulation::galerkin;
   settings.force.extraction_outer_local_radii = 0.2;  // 0.2 L = 2.5 mm < 1.5 a = 3.75 mm
   try {
-    build_local_model(hemisphere(), pole_contact(), Material{}, settings);
+    build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings);
     FAIL() << "an empty extraction shell must be refused";
   } catch (const std::invalid_argument& error) {
     const std::string what = error.what();
@@ -114,7 +114,7 @@ TEST(ExtractionQuadrature, AnEmptyShellIsRefusedBeforeTheBuildNamingBothFactors)
     EXPECT_NE(what.find("extraction_outer_local_radii"), std::string::npos) << what;
   }
   settings.force.traction = false;  // without the traction integral the shell does not matter
-  EXPECT_TRUE(build_local_model(hemisphere(), pole_contact(), Material{}, settings).ok());
+  EXPECT_TRUE(build_local_model(hemisphere(), pole_contact(), geometry::Material{}, settings).ok());
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 // the tests pin their measured errors (a regression check, not the target).
 // test_uniform_pressure_galerkin (label large, slow): the Galerkin formulation, which meets it.
 #include "touchstone/meshes/benchmark_geometry.hpp"
+#include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
 #include "touchstone/realtime/mfs/galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
@@ -42,13 +43,13 @@ const geometry::TriangleSurface& box() {
     g.edge_size_m = 0.01;
     const std::string path = "uniform_pressure_box_" + std::to_string(getpid()) + ".msh";
     meshes::generate_mesh(g, path);
-    return geometry::TriangleSurface::from_msh(path);
+    return meshes::load_msh_surface(path);
   }();
   return surface;
 }
 
 /// Boussinesq: point force P into a half-space z' ≥ 0 (depth z' = top − z), at the origin x₀.
-Eigen::Vector3d boussinesq(const Material& m, double force_N, const Eigen::Vector3d& origin, const Eigen::Vector3d& x) {
+Eigen::Vector3d boussinesq(const geometry::Material& m, double force_N, const Eigen::Vector3d& origin, const Eigen::Vector3d& x) {
   const Eigen::Vector3d d = x - origin;
   const double depth = -d.z(), rho = d.norm();
   const double c = force_N * (1 + m.poisson_ratio) / (2 * pi * m.youngs_modulus_Pa);
@@ -58,7 +59,7 @@ Eigen::Vector3d boussinesq(const Material& m, double force_N, const Eigen::Vecto
 }
 
 /// σ(u) n of the Boussinesq field [Pa], its gradient by central differences.
-Eigen::Vector3d boussinesq_traction(const Material& m, double force_N, const Eigen::Vector3d& origin,
+Eigen::Vector3d boussinesq_traction(const geometry::Material& m, double force_N, const Eigen::Vector3d& origin,
                                     const Eigen::Vector3d& x, const Eigen::Vector3d& n) {
   const double h = 1e-6;  // [m]: the field varies on the scale a = 2.5 mm
   Eigen::Matrix3d g;
@@ -66,7 +67,7 @@ Eigen::Vector3d boussinesq_traction(const Material& m, double force_N, const Eig
     g.col(k) = (boussinesq(m, force_N, origin, x + h * Eigen::Vector3d::Unit(k)) -
                 boussinesq(m, force_N, origin, x - h * Eigen::Vector3d::Unit(k))) / (2 * h);
   const Eigen::Matrix3d e = 0.5 * (g + g.transpose());
-  return (m.lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.mu_Pa() * e) * n;
+  return (m.lame_lambda_Pa() * e.trace() * Eigen::Matrix3d::Identity() + 2 * m.shear_modulus_Pa() * e) * n;
 }
 
 /// The disk at the centre of the box's top face.
@@ -116,7 +117,7 @@ Deflection measure_deflection(const NodeCloud& cloud, const Eigen::VectorXd& par
 enum class Load { uniform_disk, point_force_above };
 
 // Each build of this file (collocation, Galerkin) uses one of the two solvers below.
-[[maybe_unused]] Deflection solve(const Material& m, int node_count, double oversampling, Load load_case) {
+[[maybe_unused]] Deflection solve(const geometry::Material& m, int node_count, double oversampling, Load load_case) {
   const ToolContact contact = disk_contact();
   NodeCloud cloud = sprinkle_box(node_count, oversampling);
   const double force_N = pi * a_m * a_m * pressure_Pa;
@@ -168,7 +169,7 @@ enum class Load { uniform_disk, point_force_above };
 /// The same problems in the weak form (galerkin.hpp): the pressure is the load ∫ h_J t̄ dA on
 /// the disk, traction-free is natural, the cut's Boussinesq values are imposed like the cut's
 /// u = 0 of the punch (Nitsche or penalty).
-[[maybe_unused]] Deflection solve_galerkin(const Material& m, int node_count, Load load_case, Constraint constraint) {
+[[maybe_unused]] Deflection solve_galerkin(const geometry::Material& m, int node_count, Load load_case, Constraint constraint) {
   const ToolContact contact = disk_contact();
   const NodeCloud cloud = sprinkle_box(node_count, 1);
   const double force_N = pi * a_m * a_m * pressure_Pa;
@@ -214,7 +215,7 @@ enum class Load { uniform_disk, point_force_above };
 // −1.3 % at N = 200, 400, 800. Points uniform in ρ under-integrate K and leave spurious soft
 // modes (erratic deflections), hence the grading.
 TEST(UniformPressureGalerkin, DiskDeflectionMatchesTheHalfSpace) {
-  const Material m{10.0e3, 0.45};
+  const geometry::Material m{10.0e3, 0.45};
   const double centre = 2 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / m.youngs_modulus_Pa;
   const double mean = 16 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / (3 * pi * m.youngs_modulus_Pa);
   for (const Constraint constraint : {Constraint::penalty})
@@ -231,7 +232,7 @@ TEST(UniformPressureGalerkin, DiskDeflectionMatchesTheHalfSpace) {
 
 // Measured: −8.1 %, −0.4 %, +0.3 % at N = 200, 400, 800, Nitsche and penalty alike.
 TEST(UniformPressureGalerkin, SmoothPointForceFieldIsReproduced) {
-  const Material m{10.0e3, 0.45};
+  const geometry::Material m{10.0e3, 0.45};
   const Eigen::Vector3d top(0.5 * box_m, 0.5 * box_m, box_m);
   const double centre = -boussinesq(m, pi * a_m * a_m * pressure_Pa, top + Eigen::Vector3d(0, 0, a_m), top).z();
   for (const Constraint constraint : {Constraint::nitsche, Constraint::penalty})
@@ -251,7 +252,7 @@ TEST(UniformPressureGalerkin, SmoothPointForceFieldIsReproduced) {
 // pin today's errors at N = 800 within ±3 percentage points, so that a change to the traction
 // rows shows here, for better or worse; they are not the target.
 TEST(UniformPressure, CollocationDiskDeflectionStaysAtItsMeasuredError) {
-  const Material m{10.0e3, 0.45};
+  const geometry::Material m{10.0e3, 0.45};
   const double centre = 2 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / m.youngs_modulus_Pa;
   const double mean = 16 * (1 - m.poisson_ratio * m.poisson_ratio) * pressure_Pa * a_m / (3 * pi * m.youngs_modulus_Pa);
   const Deflection w = solve(m, 800, 3.0, Load::uniform_disk);
@@ -261,7 +262,7 @@ TEST(UniformPressure, CollocationDiskDeflectionStaysAtItsMeasuredError) {
 
 // Measured (oversampling 3): −36 %, −30 %, −29 % at N = 200, 400, 800; pinned at N = 800.
 TEST(UniformPressure, CollocationSmoothPointForceFieldStaysAtItsMeasuredError) {
-  const Material m{10.0e3, 0.45};
+  const geometry::Material m{10.0e3, 0.45};
   const Eigen::Vector3d top(0.5 * box_m, 0.5 * box_m, box_m);
   const double centre = -boussinesq(m, pi * a_m * a_m * pressure_Pa, top + Eigen::Vector3d(0, 0, a_m), top).z();
   const Deflection w = solve(m, 800, 3.0, Load::point_force_above);

@@ -71,19 +71,13 @@ std::vector<SurfaceDefect> validate_surface(const std::vector<Eigen::Vector3d>& 
 std::vector<int> coincident_vertices(const std::vector<Eigen::Vector3d>& vertices, double tolerance_m,
                                      const std::vector<char>& used = {});
 
-/// A surface as a file holds it, before validation.
+/// A surface as a file holds it, before validation (file readers live in meshes/; the
+/// TriangleSurface constructor takes the three members).
 struct SurfaceData {
   std::vector<Eigen::Vector3d> vertices;   ///< [m]
   std::vector<Eigen::Vector3i> triangles;
-  SurfaceLabels labels;                    ///< gmsh node and element tags
+  SurfaceLabels labels;                    ///< the file's vertex and triangle numbers
 };
-
-/// The triangles of a gmsh MSH 2.2/4.1 ASCII file exactly as TriangleSurface::from_msh selects
-/// them (all 2-D elements, or the physical surface groups in `groups`; MSH 2 repeats of one
-/// element for several groups kept once; only the nodes in use, in increasing tag order), not
-/// validated. Throws std::invalid_argument naming the file and line for syntax errors, and the
-/// element for anything but 3-node triangles.
-SurfaceData read_msh_surface(const std::string& path, const std::vector<std::string>& groups = {});
 
 /// Closest point on the surface to a query point.
 struct SurfaceProjection {
@@ -106,10 +100,6 @@ class TriangleSurface {
   /// The same, naming vertices and triangles with a file's own numbers in messages.
   TriangleSurface(std::vector<Eigen::Vector3d> vertices, std::vector<Eigen::Vector3i> triangles,
                   const std::string& source, const SurfaceLabels& labels);
-
-  /// The boundary triangles of a gmsh MSH 2.2/4.1 ASCII file (all 2-D elements, or only the
-  /// physical groups named in `groups` when not empty). Throws naming the file.
-  static TriangleSurface from_msh(const std::string& path, const std::vector<std::string>& groups = {});
 
   const std::vector<Eigen::Vector3d>& vertices() const { return vertices_; }
   const std::vector<Eigen::Vector3i>& triangles() const { return triangles_; }

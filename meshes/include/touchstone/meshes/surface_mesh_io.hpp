@@ -9,7 +9,7 @@
 /// of the file: "triangle 12 (STL facet 12)", "edge (3, 5) (OBJ vertices 4, 6)".
 ///
 /// Element numbers, as the usual viewers show them:
-/// - .msh: gmsh element and node tags (the file is read as TriangleSurface::from_msh reads it:
+/// - .msh: gmsh element and node tags (read by msh_reader.hpp, as load_msh_surface reads it:
 ///   MSH 2.2/4.1 ASCII, 3-node triangles only; quadrangles are rejected naming the element,
 ///   since gmsh can mesh with triangles directly).
 /// - .obj: face and vertex numbers counted from 1 in file order, as the file's `f` lines use them.

@@ -1,8 +1,11 @@
 #pragma once
 /// @file
 /// The full-domain finite element reference: linear elasticity on a gmsh tetrahedral mesh,
-/// loaded by a rigid flat punch (benchmarks B1–B5). Plain structs and Eigen only: deal.II stays
-/// inside reference_fem/src.
+/// loaded by a rigid flat punch (benchmarks B1–B5). Plain structs, Eigen and the geometry core
+/// (Material, ContactCondition) only: deal.II stays inside reference_fem/src.
+
+#include "touchstone/geometry/contact_condition.hpp"
+#include "touchstone/geometry/material.hpp"
 
 #include <Eigen/Core>
 #include <mpi.h>
@@ -15,31 +18,13 @@
 
 namespace touchstone::fem {
 
-/// Isotropic linear elastic material.
-struct Material {
-  double youngs_modulus_Pa = 10.0e3;  ///< E [Pa]; the paper's stomach tissue
-  double poisson_ratio = 0.45;        ///< ν [-], 0 ≤ ν < 0.5
-  /// Throws std::invalid_argument naming the field and value (E ≤ 0, ν ∉ [0, 0.5), non-finite).
-  void validate() const;
-  /// λ = Eν / ((1+ν)(1−2ν)) [Pa]
-  double lame_lambda_Pa() const;
-  /// μ = G = E / (2(1+ν)) [Pa]
-  double shear_modulus_Pa() const;
-};
-
-/// How the punch face holds the tissue surface.
-enum class Contact {
-  frictionless,  ///< only the displacement component along the punch axis is prescribed
-  bonded,        ///< all three components are prescribed (no slip)
-};
-
 /// A rigid flat punch whose face is the boundary named `tool_patch`, pressed by depth_m along
 /// direction (normalised on use): the patch displacement is u·d = depth (frictionless) or
 /// u = depth·d (bonded).
 struct RigidPunch {
   double depth_m = 1.0e-4;
   Eigen::Vector3d direction{0.0, 0.0, -1.0};
-  Contact contact = Contact::frictionless;
+  geometry::ContactCondition contact = geometry::ContactCondition::frictionless;
   void validate() const;
 };
 
@@ -91,7 +76,7 @@ struct SolverParameters {
 /// One linear elasticity solve. Boundaries not named anywhere are traction-free.
 struct ElasticityProblem {
   std::string mesh_path;                     ///< gmsh MSH 2.2 or 4.1 ASCII with named physical groups
-  Material material;
+  geometry::Material material;
   std::vector<std::string> clamped_boundaries{"base", "cut"};  ///< u = 0 where these exist
   std::optional<RigidPunch> punch;           ///< applied on the boundary named "tool_patch"
   std::vector<BoundaryCondition> conditions; ///< further conditions (manufactured solutions, tests)
@@ -163,7 +148,5 @@ LinearSolver linear_solver_from_string(const std::string& name);  ///< throws, l
 std::string to_string(Formulation formulation);  ///< "displacement", "mixed_p0disc"
 /// Accepts the to_string names and "mixed" (the recommended mixed formulation); throws listing them.
 Formulation formulation_from_string(const std::string& name);
-std::string to_string(Contact contact);
-Contact contact_from_string(const std::string& name);
 
 }  // namespace touchstone::fem

@@ -40,10 +40,10 @@ struct MfsStudy {
   /// the origin on B1).
   std::optional<Eigen::Vector3d> contact_point_m;
 
-  realtime::mfs::Material material;
+  geometry::Material material;
   double depth_m = 0.00025;                         ///< δ: U_tool = δ d
   Eigen::Vector3d direction{0.0, 0.0, -1.0};        ///< d, normalised when used
-  std::vector<realtime::mfs::PatchCondition> contacts{realtime::mfs::PatchCondition::frictionless};
+  std::vector<geometry::ContactCondition> contacts{geometry::ContactCondition::frictionless};
 
   /// Every knob of the local model; sprinkling.node_count is ignored in favour of node_counts.
   /// sprinkling.local_radius_m is L.
@@ -94,6 +94,6 @@ nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options
 double paper_tip_spacing_m(const MfsStudy& study, int node_count);
 
 /// "MFS-frictionless-N100": the case id of one contact condition and requested node count.
-std::string mfs_case_id(realtime::mfs::PatchCondition contact, int node_count);
+std::string mfs_case_id(geometry::ContactCondition contact, int node_count);
 
 }  // namespace touchstone::studies

@@ -14,7 +14,7 @@
 
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 
@@ -38,7 +38,7 @@ struct OrganAtlasStudy {
   /// tool_radius_m (a), local_radius_m (L); edge_size_m is the element size on the cut sphere at
   /// level 0, size_growth and max_size_m grade it outward. exterior_of_local_ball is set per solve.
   meshes::MeshParameters geometry;
-  fem::Material material;
+  geometry::Material material;
   std::vector<double> polar_angles_rad{0.0};  ///< hemisphere samples; B1 has its one sample
   AtlasModes modes = AtlasModes::all;
   std::vector<int> refinements{0, 1, 2};      ///< consecutive levels; three or more for Richardson
@@ -66,7 +66,7 @@ realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geomet
 /// by Gauss–Legendre in the polar angle and the trapezoidal rule in azimuth. Symmetrised; the
 /// quadrature is smooth (the rim lies L − a inside the ball).
 Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, double local_radius_m,
-                                                      const realtime::mfs::Material& material, int polar_points = 48,
+                                                      const geometry::Material& material, int polar_points = 48,
                                                       int azimuth_points = 64);
 
 /// K_ext of one sample on each mesh level and its extrapolation.
@@ -94,7 +94,7 @@ struct AtlasRunOptions {
 
 /// The FEM K_ext of one contact: `geometry` is the body with its contact (B1, B2 or B5;
 /// exterior_of_local_ball is set here), one mesh per level in `work_directory` (or the cache).
-ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const fem::Material& material,
+ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const geometry::Material& material,
                                          AtlasModes modes, const std::vector<int>& refinements, double trace_depth_m,
                                          const fem::SolverParameters& solver, const AtlasRunOptions& options,
                                          const std::string& work_directory);

@@ -42,8 +42,8 @@ struct ComparisonProblem {
   /// B5: polar angle θ [rad] of the tool patch centre on the hemisphere (0: the pole). The
   /// contact point is R (sin θ, 0, cos θ); the base z = 0 is clamped in the FEM only.
   double contact_polar_angle_rad = 0.0;
-  fem::Material material;
-  fem::Contact contact = fem::Contact::frictionless;
+  geometry::Material material;
+  geometry::ContactCondition contact = geometry::ContactCondition::frictionless;
   Eigen::Vector3d direction{0.0, 0.0, -1.0};  ///< d, normalised when used
   /// The tool-tip depth ramp δ_i [m] (ascending, > 0, δ_max ≤ L/2). Both models are linear
   /// (small strain): each case is solved once at max δ and the ramp is K_t δ_i d (MFS) or

@@ -4,7 +4,7 @@
 /// Three rows per node (CollocationRow), 3N unknowns u_J (nodal parameters, not displacements:
 /// MLS does not interpolate).
 
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
 
 #include <Eigen/Core>
@@ -59,7 +59,7 @@ struct CollocationSystem {
 /// Assembles the collocation system of `cloud` for `material`. Nodes J contribute at x_I when
 /// |x_I − x_J| < r_J. Does not throw: a failed shape-function evaluation is reported in
 /// `status` (and the system is left empty).
-void assemble_collocation(const NodeCloud& cloud, const Material& material,
+void assemble_collocation(const NodeCloud& cloud, const geometry::Material& material,
                           const CollocationSettings& settings, CollocationSystem& system);
 
 /// u_h(x) = Σ_J h_J(x) u_J [m] from the nodal parameters U (3N), and ∇u_h (∂u_i/∂x_k) when

@@ -35,7 +35,7 @@
 
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/local_surface.hpp"
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
@@ -141,7 +141,7 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
 /// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
 /// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (m × m in
 /// mode order, m = enrichment_modes().size()) and ignored otherwise.
-EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, const ToolContact& contact,
+EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quadratures, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,
                                    const Eigen::MatrixXd* exterior_stiffness_N_per_m = nullptr);
@@ -149,11 +149,11 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const Material& material, c
 /// The half-space exterior stiffness −∮_cut ψ_m·σ(ψ_n)n dA [N/m] on a cut quadrature (n out
 /// of the ball), symmetrised.
 Eigen::MatrixXd half_space_exterior_stiffness(const std::vector<PunchMode>& modes, const PunchFrame& frame,
-                                              double radius_m, const Material& material, const PatchQuadrature& cut);
+                                              double radius_m, const geometry::Material& material, const PatchQuadrature& cut);
 
 /// u_h at x from the parameters (3N nodal values, then the m amplitudes). Returns the MLS status.
 MlsStatus enriched_displacement(const NodeCloud& cloud, const EnrichedModel& model, double radius_m,
-                                const Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
+                                const geometry::Material& material, const MlsSettings& mls, const Eigen::VectorXd& parameters,
                                 const Eigen::Vector3d& x, MlsEvaluation& scratch, Eigen::Vector3d& u) noexcept;
 
 }  // namespace touchstone::realtime::mfs

@@ -14,7 +14,7 @@
 /// punch edge and the volume quadrature are); and Nitsche with β = 100 can lose positive
 /// definiteness on fine clouds, so the penalty stays the default.
 
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"
@@ -73,7 +73,7 @@ std::string to_string(Constraint constraint);
 
 /// Assembles the Galerkin system on the quadratures of Ω, the tool patch and the cut surface.
 /// Frictionless: the penalty holds only the component along d (u·d = U_tool·d); bonded: all.
-GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const Material& material, const ToolContact& contact,
+GalerkinSystem assemble_galerkin(const NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                  const PatchQuadrature& volume, const PatchQuadrature& patch,
                                  const PatchQuadrature& cut, const GalerkinSettings& settings);
 
@@ -85,7 +85,7 @@ bool traction_load(const NodeCloud& cloud, const PatchQuadrature& surface, const
 /// The right-hand side of u = ū [m] imposed on `surface` with projection I (the cut's
 /// constraint in assemble_galerkin): ∫_Γ (α h_J − T_Jᵀ) ū dA with Nitsche, α h_J ū with the
 /// penalty (T_J: the traction of the shape function, α from `cloud` as in assemble_galerkin).
-bool prescribed_displacement_load(const NodeCloud& cloud, const Material& material, const PatchQuadrature& surface,
+bool prescribed_displacement_load(const NodeCloud& cloud, const geometry::Material& material, const PatchQuadrature& surface,
                                   const std::vector<Eigen::Vector3d>& displacement_m, const GalerkinSettings& settings,
                                   Eigen::VectorXd& load);
 

@@ -122,11 +122,11 @@ struct BuildTimes {
 /// fills K_ext [N/m] (m × m in the enrichment's mode order) or says why it cannot (e.g. no organ
 /// atlas sample near the contact). An organ atlas provides one.
 using ExteriorStiffnessSource =
-    std::function<bool(const ToolContact& contact, double local_radius_m, const Material& material, int modes,
+    std::function<bool(const ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
                        Eigen::MatrixXd& exterior_stiffness_N_per_m, std::string& why_not)>;
 
 struct LocalModel {
-  Material material;
+  geometry::Material material;
   LocalModelSettings settings;
   ToolContact contact;
   NodeCloud cloud;
@@ -173,7 +173,7 @@ NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const Too
 /// Throws std::invalid_argument for invalid settings, material, contact or clamped surface
 /// (naming the field); numerical failures end in `status`.
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact,
-                             const Material& material, const LocalModelSettings& settings,
+                             const geometry::Material& material, const LocalModelSettings& settings,
                              const ClampedSurface& clamped = {}, const ExteriorStiffnessSource& exterior = {});
 
 /// Forces on the tissue from the tool [N] (the tool feels the opposite).

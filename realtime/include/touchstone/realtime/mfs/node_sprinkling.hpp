@@ -4,6 +4,7 @@
 /// placed in the local domain Ω = organ ∩ ball(contact, L), each with a sphere of finite
 /// radius, and each node gets its collocation rows. Works on any closed triangle surface.
 
+#include "touchstone/geometry/contact_condition.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_cloud.hpp"
@@ -26,17 +27,12 @@ enum class OuterCondition : std::uint8_t {
   traction_free,   ///< σn = 0 (a floating local domain; needs the tool to hold it)
 };
 
-enum class PatchCondition : std::uint8_t {
-  frictionless,  ///< u·d = d·U_tool, tangential traction zero
-  bonded,        ///< u = U_tool
-};
-
 /// The tool where it touches: a rigid flat punch of radius a pressed along d.
 struct ToolContact {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< on the organ surface [m]
   Eigen::Vector3d direction{0.0, 0.0, -1.0};        ///< unit push direction
   double radius_m = 0.0025;                         ///< a
-  PatchCondition condition = PatchCondition::frictionless;
+  geometry::ContactCondition condition = geometry::ContactCondition::frictionless;
 };
 
 struct SprinklingSettings {

@@ -28,7 +28,7 @@
 ///                    "relative_error", "dofs", "seconds" } ] }
 /// with n = 1 ("normal") or 3 ("all"); matrices as arrays of rows.
 
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 
 #include <Eigen/Core>
@@ -78,7 +78,7 @@ struct OrganAtlasQuery {
   Eigen::Vector3d direction = -Eigen::Vector3d::UnitZ();      ///< push direction into the body
   double tool_radius_m = 0.0025;                              ///< a [m]
   double local_radius_m = 0.0125;                             ///< L [m]
-  Material material;
+  geometry::Material material;
 };
 
 struct OrganAtlasLookupSettings {

@@ -18,7 +18,7 @@
 /// Every field is per metre of punch displacement (δ or Δ = 1 m): displacements are
 /// dimensionless [m/m] and stresses are in [Pa/m]. Displacements do not depend on G.
 
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 
 #include <Eigen/Core>
 
@@ -49,11 +49,11 @@ struct PunchFieldSample {
 /// ρ^(−1/2) in the distance ρ to the rim: the caller's quadrature must not sample the rim.
 /// Points above the rim plane outside the rim (z < 0, r ≥ a) are outside the body; they are
 /// evaluated at z = max(z, 1e-13 a) so that the branch never flips.
-PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const Material& material,
+PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double radius_m, const geometry::Material& material,
                              const Eigen::Vector3d& x) noexcept;
 
 /// The half-space tool stiffness of each mode [N/m]: 4 G a / (1 − ν) (normal), 8 G a / (2 − ν)
 /// (tangential).
-double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const Material& material) noexcept;
+double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept;
 
 }  // namespace touchstone::realtime::mfs

@@ -56,12 +56,12 @@ PatchQuadrature extraction_quadrature(const geometry::TriangleSurface& organ, co
 /// The linear map U ↦ ∫ σ(u_h) n dA [N] over any surface quadrature (3 × 3N); on the patch
 /// quadrature it is the force of the tool on the tissue. Returns false
 /// (and leaves `map` empty) when a shape-function evaluation fails at a quadrature point.
-bool surface_traction_map(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+bool surface_traction_map(const NodeCloud& cloud, const geometry::Material& material, const MlsSettings& mls,
                           const PatchQuadrature& quadrature, Eigen::Matrix<double, 3, Eigen::Dynamic>& map);
 
 /// Strain energy U = ½ ∫_Ω σ(u_h) : ε(u_h) dV [J] of the nodal parameters over a volume
 /// quadrature. NaN never escapes: a failed shape-function evaluation returns false.
-bool strain_energy(const NodeCloud& cloud, const Material& material, const MlsSettings& mls,
+bool strain_energy(const NodeCloud& cloud, const geometry::Material& material, const MlsSettings& mls,
                    const PatchQuadrature& volume, const Eigen::VectorXd& parameters, double& energy_J);
 
 /// Tributary areas [m²] of the tool-patch nodes (the paper's force mode scales each patch

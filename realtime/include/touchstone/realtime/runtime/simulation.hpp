@@ -33,7 +33,7 @@
 #include "touchstone/realtime/haptics/haptic_device.hpp"
 #include "touchstone/realtime/haptics/safety_filter.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
-#include "touchstone/realtime/mfs/material.hpp"
+#include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/runtime/contact_model.hpp"
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 
@@ -64,7 +64,7 @@ struct ToolSettings {
   double tip_radius_m = 0.0025;
   double shaft_length_m = 0.08;
   double shaft_radius_m = 0.0015;
-  mfs::PatchCondition condition = mfs::PatchCondition::frictionless;
+  geometry::ContactCondition condition = geometry::ContactCondition::frictionless;
   void validate() const;
 };
 
@@ -103,7 +103,7 @@ struct TimingSettings {
 };
 
 struct SceneSettings {
-  mfs::Material material;
+  geometry::Material material;
   mfs::LocalModelSettings model;   ///< contact, direction and tool radius are set per contact
   ToolSettings tool;
   RateSettings rates;

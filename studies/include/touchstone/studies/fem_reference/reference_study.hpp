@@ -21,12 +21,12 @@ struct ReferenceStudy {
   std::string name = "fem_reference";
   meshes::MeshParameters geometry;          ///< level-0 mesh of the first problem
   std::vector<int> refinements{0, 1, 2};    ///< ≥ 3 levels for Richardson
-  fem::Material material;
+  geometry::Material material;
   fem::RigidPunch punch;
   fem::SolverParameters solver;
   bool write_vtu = true;
   /// Sweeps (empty: the single value above).
-  std::vector<fem::Contact> contacts;
+  std::vector<geometry::ContactCondition> contacts;
   std::vector<double> poisson_ratios;
   std::vector<double> body_radii_m;         ///< W for B1 (a/W sweep), R otherwise
   /// Mesh families: level-0 edge sizes [m]; with two or more, each gets its own Richardson
@@ -54,8 +54,8 @@ nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions
 
 /// Closed forms for a rigid flat punch on a half-space [N]:
 /// Sneddon 2Eaδ/(1−ν²) (frictionless), Mossakovskii 4Gaδ·ln(3−4ν)/(1−2ν) (bonded).
-double half_space_punch_force_N(const fem::Material& material, double tool_radius_m,
-                                double depth_m, fem::Contact contact);
+double half_space_punch_force_N(const geometry::Material& material, double tool_radius_m,
+                                double depth_m, geometry::ContactCondition contact);
 
 /// The mesh parameters as results.json and the cache keys write them (every field, SI units).
 nlohmann::json mesh_parameters_json(const meshes::MeshParameters& geometry);
