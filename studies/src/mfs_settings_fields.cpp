@@ -38,8 +38,6 @@ const std::vector<Named<mfs::ExteriorCondition>> exterior_conditions{
 const std::vector<Named<mfs::Formulation>> formulations{{"enriched", mfs::Formulation::enriched},
                                                         {"galerkin", mfs::Formulation::galerkin},
                                                         {"collocation", mfs::Formulation::collocation}};
-const std::vector<Named<geometry::ContactCondition>> patch_conditions{{"frictionless", geometry::ContactCondition::frictionless},
-                                                               {"bonded", geometry::ContactCondition::bonded}};
 const std::vector<Named<mfs::Constraint>> constraints{{"penalty", mfs::Constraint::penalty},
                                                       {"nitsche", mfs::Constraint::nitsche}};
 const std::vector<Named<mfs::Basis>> bases{{"linear", mfs::Basis::linear}, {"quadratic", mfs::Basis::quadratic}};
@@ -308,10 +306,5 @@ void write_local_model_settings(toml::table& document, const Settings& settings)
 void add_local_model_params(json& params, const Settings& settings) {
   for (const SettingField& field : local_model_fields()) params[field.params_key] = field.value(settings);
 }
-
-std::vector<std::string> patch_condition_names() { return names(patch_conditions); }
-std::string patch_condition_name(geometry::ContactCondition condition) { return name_of(patch_conditions, condition); }
-geometry::ContactCondition patch_condition_from_name(const std::string& name) { return value_of(patch_conditions, name); }
-std::string exterior_name(mfs::ExteriorCondition exterior) { return name_of(exterior_conditions, exterior); }
 
 }  // namespace touchstone::studies

@@ -38,10 +38,4 @@ void write_local_model_settings(toml::table& document, const realtime::mfs::Loca
 /// Adds every field to results.json params under its params key.
 void add_local_model_params(nlohmann::json& params, const realtime::mfs::LocalModelSettings& settings);
 
-/// Config names of the tool contact and the exterior (also used outside the engine's table).
-std::vector<std::string> patch_condition_names();
-std::string patch_condition_name(geometry::ContactCondition condition);
-geometry::ContactCondition patch_condition_from_name(const std::string& name);
-std::string exterior_name(realtime::mfs::ExteriorCondition exterior);
-
 }  // namespace touchstone::studies

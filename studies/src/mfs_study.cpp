@@ -126,7 +126,7 @@ json case_params(const MfsStudy& study, const mfs::LocalModelSettings& s, const 
           {"poisson_ratio", study.material.poisson_ratio},
           {"depth_m", study.depth_m},
           {"direction", vector_json(contact.direction)},
-          {"contact", patch_condition_name(contact.condition)},
+          {"contact", geometry::to_string(contact.condition)},
           {"local_radius_m", s.sprinkling.local_radius_m}};
   // Every engine setting, from the one table that also reads and resolves them.
   add_local_model_params(params, s);

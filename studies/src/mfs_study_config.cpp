@@ -22,7 +22,7 @@ namespace mfs = realtime::mfs;
 // ---------------------------------------------------------------------------------------------
 
 std::string mfs_case_id(geometry::ContactCondition contact, int node_count) {
-  return "MFS-" + patch_condition_name(contact) + "-N" + std::to_string(node_count);
+  return "MFS-" + geometry::to_string(contact) + "-N" + std::to_string(node_count);
 }
 
 void MfsStudy::validate() const {
@@ -133,8 +133,8 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
     study.contact_point_m = Eigen::Vector3d(point[0], point[1], point[2]);
   }
   study.contacts.clear();
-  for (const auto& contact : tool.choice_list("contact", patch_condition_names(), {"frictionless"}))
-    study.contacts.push_back(patch_condition_from_name(contact));
+  for (const auto& contact : tool.choice_list("contact", {"frictionless", "bonded"}, {"frictionless"}))
+    study.contacts.push_back(geometry::contact_condition_from_string(contact));
 
   ConfigTable sprinkling = config.table("sprinkling");
   mfs::SprinklingSettings& sp = s.sprinkling;
@@ -175,7 +175,7 @@ std::string resolved_config_toml(const MfsStudy& study) {
     organ.insert("surface", study.surface_path);
   }
   toml::array contacts;
-  for (const auto c : study.contacts) contacts.push_back(patch_condition_name(c));
+  for (const auto c : study.contacts) contacts.push_back(geometry::to_string(c));
   toml::table tool{{"depth", study.depth_m}, {"direction", array3(study.direction)}, {"contact", contacts}};
   if (study.contact_point_m) tool.insert("point", array3(*study.contact_point_m));
   toml::array node_counts;
