@@ -1,34 +1,24 @@
 // Validation of the parameter structs and their names in configs.
 #include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/geometry/invalid_value.hpp"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace touchstone::fem {
-namespace {
-
-[[noreturn]] void reject(const std::string& field, double value, const std::string& rule) {
-  std::ostringstream message;
-  message << field << " = " << value << " " << rule;
-  throw std::invalid_argument(message.str());
-}
-
-}  // namespace
-
 void RigidPunch::validate() const {
-  if (!std::isfinite(depth_m) || depth_m <= 0) reject("RigidPunch.depth_m", depth_m, "must be finite and > 0");
+  if (!std::isfinite(depth_m) || depth_m <= 0) geometry::throw_invalid_value("RigidPunch.depth_m", depth_m, "must be finite and > 0");
   if (!direction.allFinite() || direction.norm() < 1e-12)
     throw std::invalid_argument("RigidPunch.direction must be a finite non-zero vector");
 }
 
 void SolverParameters::validate() const {
-  if (degree < 1 || degree > 2) reject("SolverParameters.degree", degree, "must be 1 or 2");
+  if (degree < 1 || degree > 2) geometry::throw_invalid_value("SolverParameters.degree", degree, "must be 1 or 2");
   if (!(relative_tolerance > 0 && relative_tolerance < 1))
-    reject("SolverParameters.relative_tolerance", relative_tolerance, "must be in (0, 1)");
-  if (max_iterations < 1) reject("SolverParameters.max_iterations", max_iterations, "must be ≥ 1");
+    geometry::throw_invalid_value("SolverParameters.relative_tolerance", relative_tolerance, "must be in (0, 1)");
+  if (max_iterations < 1) geometry::throw_invalid_value("SolverParameters.max_iterations", max_iterations, "must be ≥ 1");
   if (formulation != Formulation::displacement && formulation != Formulation::mixed_p0disc)
-    reject("SolverParameters.formulation", static_cast<int>(formulation), "is not a Formulation");
+    geometry::throw_invalid_value("SolverParameters.formulation", static_cast<int>(formulation), "is not a Formulation");
   // P1–P0 locks (3 displacement dofs per vertex against about 6 cell constraints): the mixed
   // option is the P2–P0 pair only.
   if (formulation == Formulation::mixed_p0disc && degree != 2)

@@ -20,12 +20,6 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // Names of the engine's enums, as spelled in configs, results.json and the resolved config.
 
-template <class E>
-struct Named {
-  const char* name;
-  E value;
-};
-
 const std::vector<Named<mfs::Layout>> layouts{{"radial_shells", mfs::Layout::radial_shells},
                                               {"quasi_random", mfs::Layout::quasi_random},
                                               {"lattice", mfs::Layout::lattice}};
@@ -53,82 +47,24 @@ const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", m
                                                          {"energy", mfs::ForceMethod::energy},
                                                          {"paper_partition", mfs::ForceMethod::paper_partition}};
 
-template <class E>
-std::vector<std::string> names(const std::vector<Named<E>>& table) {
-  std::vector<std::string> result;
-  for (const auto& entry : table) result.push_back(entry.name);
-  return result;
-}
-
-template <class E>
-std::string name_of(const std::vector<Named<E>>& table, E value) {
-  for (const auto& entry : table)
-    if (entry.value == value) return entry.name;
-  return "unknown";
-}
-
-template <class E>
-E value_of(const std::vector<Named<E>>& table, const std::string& name) {
-  for (const auto& entry : table)
-    if (name == entry.name) return entry.value;
-  throw std::invalid_argument("unknown name '" + name + "'");  // unreachable after ConfigTable::choice
-}
-
 // ---------------------------------------------------------------------------------------------
-// Field makers: `get` is a generic lambda returning a reference to the member, so one accessor
-// serves the reader (non-const settings) and the value (const settings).
+// The table.
 
 using Settings = mfs::LocalModelSettings;
+using Field = SettingField<Settings>;
 
-struct Names {
-  const char* section;
-  const char* key;
-  const char* unit;
-  const char* doc;
-  const char* params_key = "";  ///< "" → derived (the key, or section_key when it repeats)
-};
+const auto integer = [](FieldNames n, auto get) { return field::integer<Settings>(n, get); };
+const auto real = [](FieldNames n, auto get) { return field::real<Settings>(n, get); };
+const auto boolean = [](FieldNames n, auto get) { return field::boolean<Settings>(n, get); };
+const auto choice = [](FieldNames n, const auto& choices, auto get) { return field::choice<Settings>(n, choices, get); };
 
-template <class Get>
-SettingField integer(Names n, Get get) {
-  const std::string key = n.key;
-  return {n.section, n.key, n.params_key, n.unit, n.doc,
-          [get, key](ConfigTable& t, Settings& s) { get(s) = read_int(t, key, get(s)); },
-          [get](const Settings& s) { return json(get(s)); }};
-}
-
-template <class Get>
-SettingField real(Names n, Get get) {
-  const std::string key = n.key;
-  return {n.section, n.key, n.params_key, n.unit, n.doc,
-          [get, key](ConfigTable& t, Settings& s) { get(s) = t.number(key, get(s)); },
-          [get](const Settings& s) { return json(get(s)); }};
-}
-
-template <class Get>
-SettingField boolean(Names n, Get get) {
-  const std::string key = n.key;
-  return {n.section, n.key, n.params_key, n.unit, n.doc,
-          [get, key](ConfigTable& t, Settings& s) { get(s) = t.boolean(key, get(s)); },
-          [get](const Settings& s) { return json(get(s)); }};
-}
-
-template <class E, class Get>
-SettingField choice(Names n, const std::vector<Named<E>>& choices, Get get) {
-  const std::string key = n.key;
-  return {n.section, n.key, n.params_key, n.unit, n.doc,
-          [get, key, &choices](ConfigTable& t, Settings& s) {
-            get(s) = value_of(choices, t.choice(key, names(choices), name_of(choices, get(s))));
-          },
-          [get, &choices](const Settings& s) { return json(name_of(choices, get(s))); }};
-}
-
-std::vector<SettingField> make_fields() {
-  std::vector<SettingField> f;
+std::vector<Field> make_fields() {
+  std::vector<Field> f;
   // Top level. paper_mode picks every other default, so the study readers read it before the
   // table too; here it is read again (same value) so that the table consumes every key it writes.
   f.push_back(boolean({"", "paper_mode", "", "the paper's model: one tool-tip node, linear basis, eqs. 7-9"},
                       [](auto& s) -> auto& { return s.paper_mode; }));
-  SettingField formulation = choice({"", "formulation", "", "enriched (default), galerkin or collocation (the paper's)"},
+  Field formulation = choice({"", "formulation", "", "enriched (default), galerkin or collocation (the paper's)"},
                                     formulations, [](auto& s) -> auto& { return s.formulation; });
   // The formulation picks the haptic method's default and, for the weak forms, one point per node.
   formulation.read = [](ConfigTable& t, Settings& s) {
@@ -184,13 +120,8 @@ std::vector<SettingField> make_fields() {
                    [](auto& s) -> auto& { return s.sprinkling.oversampling; }));
   f.push_back(boolean({"sprinkling", "tip_node_only", "", "the tool acts on one tip node (the paper's point tool)"},
                       [](auto& s) -> auto& { return s.sprinkling.tip_node_only; }));
-  f.push_back({"sprinkling", "seed", "", "", "seed of the quasi-random layouts (>= 0)",
-               [](ConfigTable& t, Settings& s) {
-                 const std::int64_t seed = t.integer("seed", static_cast<std::int64_t>(s.sprinkling.seed));
-                 if (seed < 0) throw ConfigError(t.where("seed") + ": " + std::to_string(seed) + " must be >= 0");
-                 s.sprinkling.seed = static_cast<std::uint64_t>(seed);
-               },
-               [](const Settings& s) { return json(static_cast<std::int64_t>(s.sprinkling.seed)); }});
+  f.push_back(field::seed<Settings>({"sprinkling", "seed", "", "seed of the quasi-random layouts (>= 0)"},
+                                    [](auto& s) -> auto& { return s.sprinkling.seed; }));
 
   f.push_back(boolean({"collocation", "scale_rows", "", "scale each collocation row to unit norm"},
                       [](auto& s) -> auto& { return s.collocation.scale_rows; }));
@@ -249,62 +180,25 @@ std::vector<SettingField> make_fields() {
   f.push_back(boolean({"force", "energy", "", "compute the energy force"}, [](auto& s) -> auto& { return s.force.energy; }));
   f.push_back(boolean({"force", "traction", "", "compute the traction-integral force"}, [](auto& s) -> auto& { return s.force.traction; }));
 
-  // params keys: the key itself where it is unique over the table, else section_key.
-  std::map<std::string, int> uses;
-  for (const auto& field : f) ++uses[field.key];
-  std::set<std::string> taken;
-  for (auto& field : f) {
-    if (field.params_key.empty()) field.params_key = uses[field.key] == 1 ? field.key : field.section + "_" + field.key;
-    if (!taken.insert(field.params_key).second)
-      throw std::logic_error("MFS settings table: params key '" + field.params_key + "' used twice");
-  }
+  assign_params_keys(f, "MFS");
   return f;
 }
 
 }  // namespace
 
-const std::vector<SettingField>& local_model_fields() {
-  static const std::vector<SettingField> fields = make_fields();
+const std::vector<SettingField<Settings>>& local_model_fields() {
+  static const std::vector<Field> fields = make_fields();
   return fields;
 }
 
 void read_local_model_settings(ConfigTable& config, Settings& settings) {
-  // Each section's table once, in the table's order (a section's fields are contiguous).
-  std::string current = "\x01";
-  ConfigTable* table = nullptr;
-  std::optional<ConfigTable> section;
-  for (const SettingField& field : local_model_fields()) {
-    if (!field.read) continue;
-    if (field.section != current) {
-      current = field.section;
-      if (current.empty()) {
-        table = &config;
-      } else {
-        section.emplace(config.table(current));
-        table = &*section;
-      }
-    }
-    field.read(*table, settings);
-  }
+  read_fields(local_model_fields(), config, settings);
 }
 
 void write_local_model_settings(toml::table& document, const Settings& settings) {
-  for (const SettingField& field : local_model_fields()) {
-    const json value = field.value(settings);
-    toml::table* target = &document;
-    if (!field.section.empty()) {
-      if (!document.contains(field.section)) document.insert(field.section, toml::table{});
-      target = document[field.section].as_table();
-    }
-    if (value.is_boolean()) target->insert_or_assign(field.key, value.get<bool>());
-    else if (value.is_number_integer()) target->insert_or_assign(field.key, value.get<std::int64_t>());
-    else if (value.is_number()) target->insert_or_assign(field.key, value.get<double>());
-    else target->insert_or_assign(field.key, value.get<std::string>());
-  }
+  write_fields(local_model_fields(), document, settings);
 }
 
-void add_local_model_params(json& params, const Settings& settings) {
-  for (const SettingField& field : local_model_fields()) params[field.params_key] = field.value(settings);
-}
+void add_local_model_params(json& params, const Settings& settings) { add_params(local_model_fields(), params, settings); }
 
 }  // namespace touchstone::studies

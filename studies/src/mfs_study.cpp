@@ -76,7 +76,8 @@ Organ load_organ(const MfsStudy& study, const std::string& output_directory) {
   } else {
     info = {{"source", "file"}};
   }
-  geometry::TriangleSurface surface = meshes::load_msh_surface(path);
+  // Any surface format the readers know (.msh, .obj, .stl, .vtk, .vtp), by its extension.
+  geometry::TriangleSurface surface = meshes::load_surface(path);
   info["path"] = path;
   info["sha256"] = sha256_hex(read_file(path));
   info["vertices"] = surface.vertices().size();
@@ -461,7 +462,7 @@ meshes::MeshParameters organ_surface_geometry(const MfsStudy& study) {
 double paper_tip_spacing_m(const MfsStudy& study, int node_count) {
   if (study.surface_path.empty()) throw std::invalid_argument("paper_tip_spacing_m: the study has no surface file");
   if (!study.model.paper_mode) throw std::invalid_argument("paper_tip_spacing_m: study '" + study.name + "' is not in paper mode");
-  const auto organ = meshes::load_msh_surface(study.surface_path);
+  const auto organ = meshes::load_surface(study.surface_path);
   mfs::LocalModelSettings settings = study.model;
   settings.sprinkling.node_count = node_count;
   // The tip spacing does not depend on the patch condition (the sprinkler never reads it).

@@ -3,6 +3,8 @@
 // resolved config that reads back to the same study.
 #include "touchstone/studies/mfs_study.hpp"
 
+#include "touchstone/meshes/surface_mesh_io.hpp"
+
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 #include "touchstone/studies/output_files.hpp"
 
@@ -101,8 +103,19 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
     std::error_code ignored;
     if (!fs::is_regular_file(path, ignored)) throw ConfigError(surface_key + ": no such file '" + path.string() + "'");
     study.surface_path = fs::absolute(path).lexically_normal().string();
+    try {
+      meshes::surface_format_of(study.surface_path);
+    } catch (const std::exception& e) {
+      throw ConfigError(surface_key + ": " + e.what());
+    }
   }
   study.clamped_group = organ.string("clamped_group", study.surface_path.empty() ? "base" : "");
+  // Named groups exist only in gmsh files; the other formats (.obj, .stl, .vtk, .vtp) carry the
+  // surface alone.
+  if (!study.clamped_group.empty() && !study.surface_path.empty() &&
+      meshes::surface_format_of(study.surface_path) != meshes::SurfaceFormat::msh)
+    throw ConfigError(organ.where("clamped_group") + ": '" + study.clamped_group + "' names a gmsh physical group, and " +
+                      study.surface_path + " is not a .msh file (its format has no groups)");
   const std::string atlas = organ.string("atlas", "");
   if (!atlas.empty()) {
     fs::path path(atlas);

@@ -156,4 +156,11 @@ std::string read_file(const std::string& path) {
   return text;
 }
 
+std::string path_relative_to(const std::string& directory, const std::string& path) {
+  if (path.empty()) return path;
+  std::filesystem::path p(path);
+  if (p.is_relative()) p = std::filesystem::path(directory) / p;
+  return p.lexically_normal().string();
+}
+
 }  // namespace touchstone::studies

@@ -1,7 +1,5 @@
 #include "touchstone/studies/sim_scene.hpp"
 
-#include "mfs_settings_fields.hpp"
-
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/haptics/device_recorder.hpp"
 #include "touchstone/realtime/haptics/replay_device.hpp"
@@ -27,6 +25,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -35,168 +34,6 @@ namespace fs = std::filesystem;
 namespace rt = realtime::runtime;
 namespace haptics = realtime::haptics;
 using nlohmann::json;
-
-namespace {
-
-std::string relative_to(const std::string& directory, const std::string& path) {
-  if (path.empty()) return path;
-  fs::path p(path);
-  if (p.is_relative()) p = fs::path(directory) / p;
-  return p.lexically_normal().string();
-}
-
-void read_palpation(ConfigTable& table, haptics::PalpationSettings& p) {
-  // Sites as site0, site1, … = [x, y, z] (lengths), in order; none: generated around the top.
-  for (int i = 0; i < 16; ++i) {
-    const std::string key = "site" + std::to_string(i);
-    if (!table.has(key)) break;
-    const auto v = table.vector3(key, Dimension::length, {{0, 0, 0}});
-    p.sites.emplace_back(v[0], v[1], v[2]);
-  }
-  p.generated_sites = read_int(table, "generated_sites", p.generated_sites);
-  p.site_spread_m = table.quantity("site_spread", Dimension::length, p.site_spread_m);
-  p.hover_m = table.quantity("hover", Dimension::length, p.hover_m);
-  p.press_depth_m = table.quantity("press_depth", Dimension::length, p.press_depth_m);
-  p.slide_m = table.quantity("slide", Dimension::length, p.slide_m);
-  p.approach_s = table.quantity("approach", Dimension::time, p.approach_s);
-  p.hold_s = table.quantity("hold", Dimension::time, p.hold_s);
-  p.slide_s = table.quantity("slide_time", Dimension::time, p.slide_s);
-  p.release_s = table.quantity("release", Dimension::time, p.release_s);
-  p.rest_s = table.quantity("rest", Dimension::time, p.rest_s);
-  p.lift_m = table.quantity("lift", Dimension::length, p.lift_m);
-  p.transfer_s = table.quantity("transfer", Dimension::time, p.transfer_s);
-  p.tremor.rms_per_axis_m = table.quantity("tremor_rms", Dimension::length, p.tremor.rms_per_axis_m);
-  p.seed = read_seed(table, "seed", p.seed);
-}
-
-}  // namespace
-
-std::string to_string(DeviceKind kind) {
-  switch (kind) {
-    case DeviceKind::none: return "none";
-    case DeviceKind::scripted: return "scripted";
-    case DeviceKind::replay: return "replay";
-    case DeviceKind::openigtlink: return "openigtlink";
-    case DeviceKind::openhaptics: return "openhaptics";
-  }
-  return "?";
-}
-
-SimScene read_sim_scene(const std::string& path) {
-  ConfigTable config = ConfigTable::from_file(path);
-  const std::string directory = fs::path(path).parent_path().string();
-  SimScene scene;
-  scene.config_path = path;
-  rt::SceneSettings& s = scene.settings;
-  scene.name = config.string("scene", scene.name);
-  s.duration_s = config.quantity("duration", Dimension::time, 60.0);
-  s.force_mode = config.choice("force_mode", {"stiffness", "extrapolation"}, "stiffness") == "extrapolation"
-                     ? rt::ForceMode::extrapolation
-                     : rt::ForceMode::stiffness;
-
-  ConfigTable organ = config.table("organ");
-  scene.surface_path = relative_to(directory, organ.string("surface", ""));
-  if (!scene.surface_path.empty() && !fs::is_regular_file(scene.surface_path))
-    throw ConfigError(organ.where("surface") + ": no such file '" + scene.surface_path + "'");
-  scene.generated_organ.shape = meshes::organ_shape_from_string(organ.choice("shape", {"stomach", "hemisphere"}, "stomach"));
-  scene.generated_organ.target_triangles = read_int(organ, "triangles", 20000);
-  scene.generated_organ.hemisphere_radius_m = organ.quantity("hemisphere_radius", Dimension::length, 0.05);
-
-  ConfigTable material = config.table("material");
-  s.material.youngs_modulus_Pa = material.quantity("youngs_modulus", Dimension::pressure, 10e3);
-  s.material.poisson_ratio = material.number("poisson_ratio", 0.45);
-
-  ConfigTable tool = config.table("tool");
-  s.tool.tip_radius_m = tool.quantity("tip_radius", Dimension::length, s.tool.tip_radius_m);
-  s.tool.shaft_length_m = tool.quantity("shaft_length", Dimension::length, s.tool.shaft_length_m);
-  s.tool.shaft_radius_m = tool.quantity("shaft_radius", Dimension::length, s.tool.shaft_radius_m);
-  s.tool.condition = tool.choice("contact", {"frictionless", "bonded"}, "frictionless") == "bonded"
-                         ? geometry::ContactCondition::bonded
-                         : geometry::ContactCondition::frictionless;
-
-  // The engine: the same sections as `touchstone mfs`, under [model]. The energy and traction
-  // extractions are study quantities (a volume quadrature per solve, a shell quadrature per
-  // build): off unless asked for; a traction_integral haptic method needs traction = true.
-  ConfigTable model = config.table("model");
-  s.model.force.energy = false;
-  s.model.force.traction = false;
-  read_local_model_settings(model, s.model);
-  ConfigTable sprinkling = model.table("sprinkling");
-  s.model.sprinkling.node_count = read_int(sprinkling, "node_count", 60);
-  s.model.sprinkling.local_radius_m = sprinkling.quantity("local_radius", Dimension::length, 5 * s.tool.tip_radius_m);
-
-  ConfigTable device = config.table("device");
-  const std::string kind = device.choice("kind", {"none", "scripted", "replay", "openigtlink", "openhaptics"}, "scripted");
-  for (DeviceKind k : {DeviceKind::none, DeviceKind::scripted, DeviceKind::replay, DeviceKind::openigtlink, DeviceKind::openhaptics})
-    if (to_string(k) == kind) scene.device = k;
-  scene.device_max_force_N = device.quantity("max_force", Dimension::force, scene.device_max_force_N);
-  ConfigTable scripted = device.table("scripted");
-  read_palpation(scripted, scene.palpation);
-  ConfigTable replay = device.table("replay");
-  scene.replay_path = relative_to(directory, replay.string("file", ""));
-  if (scene.device == DeviceKind::replay && scene.replay_path.empty())
-    throw ConfigError(replay.where("file") + ": the replay device needs a recording (touchstone sim --record)");
-  ConfigTable igtl = device.table("openigtlink");
-  scene.igtl_port = read_int(igtl, "port", scene.igtl_port);
-  scene.igtl_length_unit_m = igtl.quantity("length_unit", Dimension::length, scene.igtl_length_unit_m);
-  ConfigTable openhaptics = device.table("openhaptics");
-  scene.openhaptics_device_name = openhaptics.string("name", scene.openhaptics_device_name);
-
-  ConfigTable rates = config.table("rates");
-  s.rates.haptic_hz = rates.number("haptic_hz", s.rates.haptic_hz);
-  s.rates.model_hz = rates.number("model_hz", s.rates.model_hz);
-  s.rates.graphics_hz = rates.number("graphics_hz", s.rates.graphics_hz);
-  s.prediction.cycle_period_s = 1.0 / s.rates.haptic_hz;
-
-  ConfigTable contact = config.table("contact");
-  s.contact.keep_fraction = contact.number("keep_fraction", s.contact.keep_fraction);
-  s.contact.usable_fraction = contact.number("usable_fraction", s.contact.usable_fraction);
-  s.contact.crossfade_s = contact.quantity("crossfade", Dimension::time, s.contact.crossfade_s);
-  s.contact.prebuild_on_prediction = contact.boolean("prebuild_on_prediction", s.contact.prebuild_on_prediction);
-  s.contact.prebuild_horizon_s = contact.quantity("prebuild_horizon", Dimension::time, s.contact.prebuild_horizon_s);
-  s.contact.extrapolation_horizon_s = contact.quantity("extrapolation_horizon", Dimension::time, s.contact.extrapolation_horizon_s);
-
-  ConfigTable safety = config.table("safety");
-  s.safety.max_force_N = safety.quantity("max_force", Dimension::force, s.safety.max_force_N);
-  s.safety.max_rate_N_per_s = safety.number("max_rate_N_per_s", s.safety.max_rate_N_per_s);
-  s.safety.stale_after_s = safety.quantity("stale_after", Dimension::time, s.safety.stale_after_s);
-
-  ConfigTable prediction = config.table("prediction");
-  read_prediction_settings(prediction, s.prediction);
-
-  ConfigTable timing = config.table("timing");
-  s.timing.spin_tail_s = timing.quantity("spin_tail", Dimension::time, s.timing.spin_tail_s);
-  s.timing.request_fifo = timing.boolean("fifo", s.timing.request_fifo);
-  s.timing.fifo_priority = read_int(timing, "fifo_priority", s.timing.fifo_priority);
-  s.timing.late_threshold_s = timing.quantity("late_threshold", Dimension::time, s.timing.late_threshold_s);
-
-  ConfigTable output = config.table("output");
-  scene.output_directory = output.string("directory", "output/" + scene.name);
-  scene.write_time_series = output.boolean("time_series", scene.write_time_series);
-  scene.time_series_frame_stride = read_int(output, "frame_stride", scene.time_series_frame_stride);
-  scene.window = output.boolean("window", scene.window);
-  scene.screenshot_path = output.string("screenshot", scene.screenshot_path);
-  scene.igtl_polydata = output.boolean("openigtlink_polydata", scene.igtl_polydata);
-  scene.write_force_history = output.boolean("force_history", scene.write_force_history);
-
-  config.finish();
-  try {
-    s.validate();
-    scene.palpation.validate();
-    scene.generated_organ.validate();
-    if (!(scene.device_max_force_N > 0)) throw std::invalid_argument("device.max_force must be > 0");
-    // Every model build would fail (the patch would not fit in the local ball): refused here,
-    // as `touchstone mfs` refuses it, rather than a run that feels nothing.
-    const double L = s.model.sprinkling.local_radius_m;
-    if (!(s.tool.tip_radius_m < 0.5 * L))
-      throw std::invalid_argument("tool.tip_radius = " + format_number(s.tool.tip_radius_m) +
-                                  " m must be < model.sprinkling.local_radius / 2 = " + format_number(0.5 * L) + " m");
-    if (scene.time_series_frame_stride < 1) throw std::invalid_argument("output.frame_stride must be >= 1");
-  } catch (const std::invalid_argument& error) {
-    throw ConfigError(path + ": " + error.what());
-  }
-  return scene;
-}
 
 json summary_json(const rt::RunSummary& r) {
   const auto loop = [](const rt::LoopStatistics& l) {
@@ -322,6 +159,25 @@ std::string generated_organ_cache_name(const meshes::OrganParameters& organ) {
 
 namespace {
 
+/// Organs span millimetres to decimetres; a file in millimetres read as metres spans metres. A
+/// warning (the run goes on: a phantom may be large) when the bounding box is outside that range.
+std::string organ_size_warning(const geometry::TriangleSurface& organ, const std::string& name) {
+  Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  for (const auto& v : organ.vertices()) {
+    low = low.cwiseMin(v);
+    high = high.cwiseMax(v);
+  }
+  const double diagonal_m = (high - low).norm();
+  constexpr double smallest_m = 0.005, largest_m = 1.0;
+  if (diagonal_m >= smallest_m && diagonal_m <= largest_m) return "";
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "the organ %s is %.3g m across (bounding-box diagonal), outside %g-%g m: if its file is not in "
+                "metres, set [organ] unit_scale (0.001 for millimetres)",
+                name.c_str(), diagonal_m, smallest_m, largest_m);
+  return text;
+}
+
 std::string fmt_seconds(double seconds) {
   char text[64];
   std::snprintf(text, sizeof text, "%g s", seconds);
@@ -329,7 +185,11 @@ std::string fmt_seconds(double seconds) {
 }
 
 geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& output_directory, bool print) {
-  if (!scene.surface_path.empty()) return meshes::load_surface(scene.surface_path);
+  if (!scene.surface_path.empty()) {
+    meshes::SurfaceReadOptions read;
+    read.unit_scale = scene.surface_unit_scale;
+    return meshes::load_surface(scene.surface_path, read);
+  }
   // Generated shapes are cached beside the outputs under a name that hashes every parameter;
   // a cached file that cannot be read (a run killed while writing it, before the atomic
   // rename existed) is generated again, not an error.
@@ -376,6 +236,10 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
 
   const geometry::TriangleSurface organ = load_organ(scene, out, options.print);
   std::vector<std::string> notes;
+  if (const std::string warning = organ_size_warning(organ, scene.surface_path.empty() ? meshes::to_string(scene.generated_organ.shape) : scene.surface_path); !warning.empty()) {
+    notes.push_back(warning);
+    if (options.print) std::printf("warning: %s\n", warning.c_str());
+  }
 
   // The device.
   std::unique_ptr<haptics::HapticDevice> device;
@@ -448,7 +312,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
     if (realtime::graphics::InteractiveWindow::display_available()) {
       realtime::graphics::InteractiveWindowSettings settings;
       settings.title = "Touchstone: " + scene.name;
-      if (!scene.screenshot_path.empty()) settings.screenshot_path = relative_to(out, scene.screenshot_path);
+      if (!scene.screenshot_path.empty()) settings.screenshot_path = path_relative_to(out, scene.screenshot_path);
       window = std::make_unique<realtime::graphics::InteractiveWindow>(settings);
       sinks.push_back(window.get());
     } else {
@@ -477,6 +341,9 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   document["config"] = scene.config_path;
   document["organ_triangles"] = organ.triangles().size();
   document["provenance"] = provenance(read_file(scene.config_path));
+  // The scene as run (command-line overrides applied), one key per setting.
+  document["params"] = sim_scene_params(scene);
+  document["config_resolved"] = "config.resolved.toml";
   if (scene.device == DeviceKind::scripted) document["palpations"] = palpation.palpations;
 #ifdef TOUCHSTONE_HAVE_VTK
   if (series) {
@@ -505,6 +372,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
     write_file_atomically((fs::path(out) / "forces.csv").string(), csv.str());
     document["force_history"] = (fs::path(out) / "forces.csv").string();
   }
+  write_file_atomically((fs::path(out) / "config.resolved.toml").string(), resolved_scene_toml(scene));
   write_file_atomically((fs::path(out) / "summary.json").string(), document.dump(2) + "\n");
   if (options.print) {
     std::printf("%s", summary_text(summary).c_str());

@@ -321,6 +321,48 @@ TEST(CollisionStudy, ConfigErrorsNameTheFileAndTheKey) {
   EXPECT_NE(e.find("organ.stomach_triangles"), std::string::npos) << e;
 }
 
+// One settings table reads the study, writes config.resolved.toml and results.json params: a
+// study changed away from its defaults in every section reads back from its resolved config with
+// every param equal, and params hold one key per setting.
+TEST(CollisionStudy, ResolvedConfigReadsBackEverySetting) {
+  CollisionStudy study = default_collision_study();
+  study.name = "every_setting";
+  study.organs.resize(2);
+  study.organs[1].shape = meshes::OrganShape::hemisphere;
+  for (auto& organ : study.organs) organ.stomach_scale = 1.25;
+  study.bounding_volumes = {realtime::collision::BoundingVolume::aabb};
+  study.trees[1].settings.split = realtime::collision::SplitRule::mean;
+  study.trajectories = 17;
+  study.seed = 123456789012ull;
+  study.approach.press_depth_max_m = 0.0045;
+  study.approach.tremor.spectrum = realtime::hand_motion::TremorSpectrum::sinusoids;
+  study.approach.tremor.band_high_hz = 11.5;
+  study.prediction.window_samples = 12;
+  study.prediction.direction_threshold_rad = 0.3;
+  study.prediction.audit = true;
+  study.tremor.amplitudes_m = {0.0, 3e-4};
+  study.tremor.windows = {2, 5};
+  study.tremor.shape = meshes::OrganShape::hemisphere;
+  study.min_timing_s = 0.125;
+  study.validate();
+
+  ConfigTable resolved = ConfigTable::from_string(resolved_config_toml(study), "resolved.toml");
+  const CollisionStudy back = read_collision_study(resolved);
+  const json params = collision_params(study);
+  EXPECT_EQ(collision_params(back), params);
+  EXPECT_EQ(back.organs.size(), 2u);
+  EXPECT_EQ(back.organs[1].shape, meshes::OrganShape::hemisphere);
+  EXPECT_EQ(back.bounding_volumes, study.bounding_volumes);
+  EXPECT_EQ(back.trees[1].settings.split, realtime::collision::SplitRule::mean);
+  EXPECT_EQ(params.at("window_samples"), 12);
+  EXPECT_EQ(params.at("approach_seed"), 123456789012);
+  EXPECT_EQ(params.at("tremor_study_seed"), study.tremor.seed);
+  EXPECT_EQ(params.at("spectrum"), "sinusoids");
+  EXPECT_EQ(params.at("organ"), "hemisphere");
+  EXPECT_EQ(params.at("stomach_scale"), 1.25);
+  EXPECT_EQ(params.at("amplitudes"), json::array({0.0, 3e-4}));
+}
+
 TEST(CollisionStudy, PaperTable1Numbers) {
   EXPECT_EQ(paper_table1_overlap_tests(500), 9);
   EXPECT_EQ(paper_table1_overlap_tests(2480), 12);

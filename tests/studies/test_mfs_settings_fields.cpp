@@ -17,7 +17,7 @@ namespace mfs = realtime::mfs;
 
 TEST(MfsSettingsFields, EveryFieldIsNamedDocumentedAndReadable) {
   std::set<std::string> keys, params;
-  for (const SettingField& f : local_model_fields()) {
+  for (const auto& f : local_model_fields()) {
     EXPECT_TRUE(keys.insert(f.section + "." + f.key).second) << f.section << "." << f.key << " twice";
     EXPECT_TRUE(params.insert(f.params_key).second) << "params key " << f.params_key << " twice";
     EXPECT_FALSE(f.doc.empty()) << f.key;
@@ -68,7 +68,7 @@ TEST(MfsSettingsFields, ResolvedSettingsReadBackToTheSameValues) {
   s.force.haptic_method = mfs::ForceMethod::paper_partition;
   s.force.traction = !s.force.traction;
   const mfs::LocalModelSettings back = round_trip(s);
-  for (const SettingField& f : local_model_fields())
+  for (const auto& f : local_model_fields())
     EXPECT_EQ(f.value(back), f.value(s)) << f.section << "." << f.key;
   // The formulation's side effect (the haptic default) must not override an explicit method.
   EXPECT_EQ(back.force.haptic_method, mfs::ForceMethod::paper_partition);

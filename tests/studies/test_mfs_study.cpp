@@ -3,6 +3,7 @@
 // config errors that name the file and the key or field.
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/studies/fem_reference/probes.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
@@ -14,6 +15,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <string>
 
 namespace touchstone::studies {
@@ -189,6 +191,39 @@ TEST_F(MfsStudyRun, ResolvedConfigReadsBackToTheSameStudy) {
 
 // A case that cannot be built (here: the tool point is off the organ) is recorded, not fatal,
 // and its numbers are null, never NaN.
+// An organ given as a surface file is read in any format the readers know: the run's own organ
+// surface (.msh) written as .obj and .stl gives the same forces (STL stores 32-bit floats: the
+// vertices move by ~1e-7 relative, the force by as little). A clamped group is a gmsh name:
+// asked of an .stl it is refused, naming the key.
+TEST_F(MfsStudyRun, OrganSurfaceInEveryFormatGivesTheSameForce) {
+  const meshes::SurfaceMesh organ = meshes::read_surface_mesh((output() / "organ_surface.msh").string());
+  std::map<std::string, double> force_N;
+  for (const std::string name : {"organ.msh", "organ.obj", "organ.stl"}) {
+    SCOPED_TRACE(name);
+    const fs::path file = temp_directory() / name;
+    if (name == "organ.msh") fs::copy_file(output() / "organ_surface.msh", file, fs::copy_options::overwrite_existing);
+    else meshes::write_surface_mesh(file.string(), organ.vertices, organ.triangles);
+    std::string text = edited("edge_size = \"0.5 mm\"\nsize_growth = 0.3\nmax_size = \"8 mm\"", "surface = \"" + name + "\"");
+    text.replace(text.find("node_count = [34, 60]"), std::string("node_count = [34, 60]").size(), "node_count = 34");
+    ConfigTable from_file = ConfigTable::from_string(text, name + ".toml");
+    const MfsStudy study = read_mfs_study(from_file, temp_directory().string());
+    MfsRunOptions options;
+    options.output_directory = (temp_directory() / ("out_" + name)).string();
+    options.quiet = true;
+    const json document = run_mfs_study(study, options);
+    ASSERT_EQ(document.at("cases").size(), 1u);
+    ASSERT_EQ(document.at("cases")[0].at("status"), "ok") << document.at("cases")[0].dump();
+    EXPECT_EQ(document.at("organ").at("triangles"), organ.triangles.size());
+    force_N[name] = document.at("cases")[0].at("qoi").at("force_N")[2].get<double>();
+  }
+  EXPECT_NEAR(force_N["organ.obj"], force_N["organ.msh"], 1e-9 * std::abs(force_N["organ.msh"]));
+  EXPECT_NEAR(force_N["organ.stl"], force_N["organ.msh"], 1e-5 * std::abs(force_N["organ.msh"]));
+
+  const std::string message = config_error("[organ]\nsurface = \"organ.stl\"\nclamped_group = \"base\"\n");
+  EXPECT_NE(message.find("organ.clamped_group"), std::string::npos) << message;
+  EXPECT_NE(message.find(".msh"), std::string::npos) << message;
+}
+
 TEST(MfsStudyFailure, FailedCaseHasAStatusAndNoNumbers) {
   ConfigTable config = ConfigTable::from_string(
       edited("contact = \"frictionless\"", "contact = \"bonded\"\npoint = [\"0 mm\", \"0 mm\", \"60 mm\"]"),

@@ -2,12 +2,14 @@
 // `touchstone study` file) is read by read_comparison_study without error and expands to at
 // least one MFS case. No solver runs: reading checks every key, the referenced FEM files and
 // every [mfs.<name>] section against the engine's validation.
+#include "touchstone/studies/fem_reference/reference_study.hpp"
 #include "touchstone/studies/study_runner.hpp"
 
 #include <gtest/gtest.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -29,6 +31,30 @@ std::vector<fs::path> comparison_studies() {
   }
   std::sort(files.begin(), files.end());
   return files;
+}
+
+// The FEM reference studies (studies/configs/b<k>_*.toml) read, and their resolved config
+// (every default filled in, SI) reads back to the same study: resolving it again gives the same
+// text, key for key.
+TEST(ShippedStudies, EveryFemStudyReadsBackFromItsResolvedConfig) {
+  int studies = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(TOUCHSTONE_SOURCE_DIR) / "studies" / "configs")) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() != ".toml" || name.size() < 3 || name[0] != 'b' || !std::isdigit(name[1])) continue;
+    SCOPED_TRACE(name);
+    ConfigTable config = ConfigTable::from_file(entry.path().string());
+    const ReferenceStudy study = read_reference_study(config);
+    const std::string resolved = resolved_reference_study_toml(study);
+    ConfigTable again = ConfigTable::from_string(resolved, name + ".resolved");
+    const ReferenceStudy back = read_reference_study(again);
+    EXPECT_EQ(resolved_reference_study_toml(back), resolved);
+    EXPECT_EQ(back.geometry.max_size_m, study.geometry.max_size_m);
+    EXPECT_EQ(back.edge_sizes_m, study.edge_sizes_m);
+    EXPECT_EQ(back.geometry.edge_size_m, study.geometry.edge_size_m);
+    EXPECT_EQ(back.punch.depth_m, study.punch.depth_m);
+    ++studies;
+  }
+  EXPECT_GE(studies, 6);
 }
 
 TEST(ShippedStudies, TheComparisonStudiesAreShipped) {

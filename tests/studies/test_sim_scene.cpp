@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 
 namespace touchstone::studies {
@@ -35,6 +36,79 @@ TEST(SimScene, ReadsTheShippedPalpationScene) {
   EXPECT_EQ(scene.settings.rates.haptic_hz, 1000.0);
   EXPECT_EQ(scene.settings.force_mode, realtime::runtime::ForceMode::stiffness);
   EXPECT_FALSE(scene.settings.model.force.energy) << "the energy quadrature is a study quantity";
+}
+
+// One settings table reads the scene, writes config.resolved.toml and summary.json params: the
+// shipped scene, and a scene changed away from its defaults in every section, read back from
+// their resolved configs (written in another folder) with every param and path equal.
+TEST(SimScene, ResolvedSceneReadsBackEverySetting) {
+  touchstone::testing::TemporaryDirectory directory("scene_resolved");
+  const std::string changed = directory.file("changed.toml", R"(
+scene = "changed"
+duration = "2.5 s"
+force_mode = "extrapolation"
+[organ]
+shape = "hemisphere"
+triangles = 800
+hemisphere_radius = "40 mm"
+[material]
+youngs_modulus = "12 kPa"
+poisson_ratio = 0.4
+[tool]
+tip_radius = "2 mm"
+contact = "bonded"
+[model]
+formulation = "galerkin"
+[model.sprinkling]
+node_count = 40
+layout = "lattice"
+[model.solver]
+kind = "sparse_lu"
+[device]
+kind = "none"
+max_force = "2.5 N"
+[device.scripted]
+site0 = ["1 mm", "2 mm", "30 mm"]
+press_depth = "2 mm"
+seed = 9
+[device.openigtlink]
+port = 18000
+[rates]
+model_hz = 100
+[contact]
+crossfade = "30 ms"
+prebuild_on_prediction = false
+[safety]
+max_rate_N_per_s = 50
+[prediction]
+window_samples = 12
+margin = "0.2 mm"
+[timing]
+fifo = false
+[output]
+frame_stride = 3
+force_history = true
+)");
+  std::filesystem::create_directories(directory.path("elsewhere"));
+  for (const std::string& path : {source_dir + "/studies/configs/scenes/palpation.toml", changed}) {
+    SCOPED_TRACE(path);
+    const SimScene scene = read_sim_scene(path);
+    const std::string resolved = directory.file("elsewhere/" + scene.name + ".resolved.toml", resolved_scene_toml(scene));
+    const SimScene back = read_sim_scene(resolved);
+    EXPECT_EQ(sim_scene_params(back), sim_scene_params(scene));
+    EXPECT_EQ(back.surface_path, scene.surface_path);
+    EXPECT_EQ(back.palpation.sites, scene.palpation.sites);
+  }
+  const nlohmann::json params = sim_scene_params(read_sim_scene(changed));
+  EXPECT_EQ(params.at("force_mode"), "extrapolation");
+  EXPECT_EQ(params.at("model_formulation"), "galerkin");
+  EXPECT_EQ(params.at("model_layout"), "lattice");
+  EXPECT_EQ(params.at("node_count"), 40);
+  EXPECT_DOUBLE_EQ(params.at("local_radius").get<double>(), 0.010) << "default 5 tip radii";
+  EXPECT_DOUBLE_EQ(params.at("prediction_margin").get<double>(), 2e-4);
+  EXPECT_EQ(params.at("contact"), "bonded");
+  EXPECT_EQ(params.at("device_max_force"), 2.5);
+  EXPECT_EQ(params.at("directory"), "output/changed");
 }
 
 void expect_scene_error(const std::string& text, const std::string& fragment) {
@@ -94,6 +168,49 @@ transfer = "0.6 s"
 [output]
 frame_stride = 10
 )");
+}
+
+// An organ file in millimetres: with [organ] unit_scale = 0.001 the run is the metre file's (the
+// same contacts; forces within 0.1 %: a .vtp holds 32-bit coordinates, rounded differently in
+// millimetres, and the largest force is sampled at the haptic ticks); without it the organ is
+// 80 m across and the run says so (a note and a warning).
+TEST(SimRun, AnOrganFileInMillimetresTakesAUnitScaleAndIsFlaggedWithout) {
+  touchstone::testing::TemporaryDirectory directory("sim_units");
+  const std::string metres_scene = small_scene(directory);
+  auto mesh = geometry::icosphere(4, 0.04);
+  for (auto& v : mesh.vertices) v *= 1000.0;
+  meshes::write_surface_mesh(directory.path("sphere_mm.vtp"), mesh.vertices, mesh.triangles);
+  std::string text = read_file(metres_scene);
+  text.replace(text.find("duration = \"6 s\""), 16, "duration = \"3 s\"");
+  const std::string metres = directory.file("metres.toml", text);
+  text.replace(text.find("surface = \"sphere.vtp\""), 22, "surface = \"sphere_mm.vtp\"\nunit_scale = 0.001");
+  const std::string scaled = directory.file("scaled.toml", text);
+  text.replace(text.find("unit_scale = 0.001"), 18, "");
+  text.replace(text.find("duration = \"3 s\""), 16, "duration = \"0.1 s\"");
+  text += "[device]\nkind = \"none\"\n";  // the warning is the organ's; no palpation needed
+  const std::string unscaled = directory.file("unscaled.toml", text);
+
+  std::map<std::string, nlohmann::json> summary;
+  for (const std::string& scene : {metres, scaled, unscaled}) {
+    SimOptions options;
+    options.virtual_clock = true;
+    options.output_directory = directory.path("out_" + std::filesystem::path(scene).stem().string());
+    options.print = false;
+    summary[scene] = run_sim(read_sim_scene(scene), options);
+  }
+  const double force_N = summary[metres]["forces"]["max_force_N"].get<double>();
+  EXPECT_GT(force_N, 0.01);
+  EXPECT_NEAR(summary[scaled]["forces"]["max_force_N"].get<double>(), force_N, 1e-3 * force_N);
+  EXPECT_EQ(summary[scaled]["work"]["contacts"], summary[metres]["work"]["contacts"]);
+  const auto has_size_note = [](const nlohmann::json& s) {
+    for (const auto& note : s["notes"])
+      if (note.get<std::string>().find("unit_scale") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_FALSE(has_size_note(summary[metres]));
+  EXPECT_FALSE(has_size_note(summary[scaled]));
+  EXPECT_TRUE(has_size_note(summary[unscaled])) << summary[unscaled]["notes"].dump();
+  expect_scene_error("[organ]\nunit_scale = -1\n", "organ.unit_scale");
 }
 
 TEST(SimRun, StudyModeWritesSummaryForcesAndATimeSeries) {

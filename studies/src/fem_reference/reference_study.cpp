@@ -125,6 +125,7 @@ class Runner {
     if (study_.edge_sizes_m.size() > 1) document["references"] = combine_families(problems, cases);
     if (study_.geometry.benchmark == meshes::Benchmark::B1) document["half_space_extrapolation"] = half_space_extrapolation(problems, cases);
     if (rank0_) {
+      write_file_atomically(options_.output_directory + "/config.resolved.toml", resolved_reference_study_toml(study_));
       write_file_atomically(options_.output_directory + "/results.json", document.dump(2) + "\n");
       write_pvd(cases);
     }

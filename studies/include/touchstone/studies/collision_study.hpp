@@ -93,6 +93,10 @@ struct CollisionStudy {
 /// hemisphere at 2,500; trees "binary" and "default").
 CollisionStudy default_collision_study();
 
+/// The names of the sweeps' enums in study files, results.json and the report.
+std::string to_string(realtime::collision::BoundingVolume volume);
+std::string to_string(realtime::collision::SplitRule split);
+
 /// Reads a [prediction] table into `settings` (its values are the defaults); shared by
 /// `touchstone collision` studies and `touchstone sim` scenes. The cycle period is the caller's.
 void read_prediction_settings(ConfigTable& prediction, realtime::collision::PredictionSettings& settings);
@@ -104,6 +108,10 @@ CollisionStudy read_collision_study(ConfigTable& config);
 /// The study with every default filled in, quantities in SI, as TOML that
 /// read_collision_study reads back to the same study.
 std::string resolved_config_toml(const CollisionStudy& study);
+
+/// results.json params: every scalar setting of the study under one key each (the same table as
+/// the reader and config.resolved.toml), plus the organs' shared shape parameters.
+nlohmann::json collision_params(const CollisionStudy& study);
 
 struct CollisionRunOptions {
   std::string output_directory = "output/collision";

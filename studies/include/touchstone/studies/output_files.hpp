@@ -48,5 +48,8 @@ double seconds_since(std::chrono::steady_clock::time_point start);
 void write_file_atomically(const std::string& path, const std::string& text);
 /// The whole file; throws std::runtime_error naming the path and the system's reason.
 std::string read_file(const std::string& path);
+/// `path` taken relative to `directory` when it is relative (a config's files are relative to
+/// the config's folder), normalised; "" stays "".
+std::string path_relative_to(const std::string& directory, const std::string& path);
 
 }  // namespace touchstone::studies

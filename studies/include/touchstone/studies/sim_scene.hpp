@@ -26,6 +26,7 @@ struct SimScene {
   std::string config_path;
   /// The organ: a surface file, or (empty) a generated shape.
   std::string surface_path;
+  double surface_unit_scale = 1.0;  ///< metres per unit of the surface file (1e-3: millimetres)
   meshes::OrganParameters generated_organ;
   realtime::runtime::SceneSettings settings;
 
@@ -49,6 +50,14 @@ struct SimScene {
 /// Reads a scene; unknown keys are errors naming the file and key. Relative paths are taken
 /// relative to the scene file's folder (the output directory relative to the working directory).
 SimScene read_sim_scene(const std::string& path);
+
+/// The scene with every default filled in, quantities in SI and paths absolute, as TOML that
+/// read_sim_scene reads back to the same scene (written as config.resolved.toml by run_sim).
+std::string resolved_scene_toml(const SimScene& scene);
+
+/// summary.json params: every setting of the scene under one key (the same table as the reader
+/// and the resolved config; the engine's under model_*, the predictor's under prediction_*).
+nlohmann::json sim_scene_params(const SimScene& scene);
 
 struct SimOptions {
   std::optional<double> duration_s;    ///< overrides the scene's

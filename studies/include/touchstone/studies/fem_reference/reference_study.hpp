@@ -40,6 +40,10 @@ struct ReferenceStudy {
 /// Reads a study from a config file; every key is checked (unknown keys are errors).
 ReferenceStudy read_reference_study(ConfigTable& config);
 
+/// The study with every default filled in, quantities in SI, as TOML that read_reference_study
+/// reads back to the same study (written as config.resolved.toml next to results.json).
+std::string resolved_reference_study_toml(const ReferenceStudy& study);
+
 /// Where results go, and the cache of finished solves.
 struct RunOptions {
   std::string output_directory = "output/fem";
