@@ -15,15 +15,18 @@ def render(results):
     w("# MFS study `%s`" % results.get("study"))
     w("")
     w("From `results.json` (git %s, %s build). Organ %s, %s triangles. %d case%s, %d ok. Forces in mN along the tool "
-      "direction (the engine's haptic force); no reference here: `touchstone study` pairs these cases with the FEM."
+      "direction (the engine's haptic force); no reference here: `touchstone study` pairs these cases with the FEM. "
+      "Flags: what a case says about its own accuracy (the force extractions disagree, supports grew, ill "
+      "conditioned, implausible stiffness, unconverged against the previous N)."
       % (prov.get("git"), prov.get("build_type"), organ.get("path"), organ.get("triangles"), len(cases),
          "" if len(cases) == 1 else "s", len(ok)))
     w("")
-    w.extend(table(["case", "N", "F [mN]", "k*", "stiffness [N/m]", "build", "status"],
+    w.extend(table(["case", "N", "F [mN]", "k*", "stiffness [N/m]", "build", "status", "flags"],
                    [["`%s`" % c.get("id"), get(c, "params", "node_count"), mn(get(c, "qoi", "axial_force_N")),
                      fmt(get(c, "qoi", "k_star"), "%.4f"), fmt(get(c, "qoi", "stiffness_N_per_m"), "%.4g"),
-                     seconds(get(c, "time_s", "build")), c.get("status")] for c in cases],
-                   ["l", "r", "r", "r", "r", "r", "l"]))
+                     seconds(get(c, "time_s", "build")), c.get("status"),
+                     ", ".join(get(c, "accuracy", "flags") or []) or "-"] for c in cases],
+                   ["l", "r", "r", "r", "r", "r", "l", "l"]))
     return w.text()
 
 

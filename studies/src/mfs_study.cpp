@@ -1,6 +1,7 @@
 // `touchstone mfs`: TOML → MfsStudy (sections map one-to-one onto the engine's parameter
 // structs), the cases of the sweep, results.json (the study contract) and the node clouds as VTU.
 #include "touchstone/studies/mfs_study.hpp"
+#include "touchstone/studies/study_runner.hpp"
 
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
@@ -489,22 +490,31 @@ nlohmann::json run_mfs_study(const MfsStudy& study, const MfsRunOptions& options
   const std::size_t total = study.contacts.size() * study.node_counts.size();
   std::size_t done = 0;
   const Eigen::Vector3d d = study.direction.normalized();
-  for (const auto contact : study.contacts)
+  for (const auto contact : study.contacts) {
+    // What each case says about its own accuracy (no reference needed): the flags `study` gives
+    // the same case, judged against the previous node count of the same contact.
+    json previous;
     for (const int n : study.node_counts) {
       json c = runner.run(contact, n);
+      c["accuracy"] = to_json(accuracy_indicator(c, d, previous.is_null() ? nullptr : &previous));
+      previous = c;
       ++done;
       if (!options.quiet) {
         const double elapsed = seconds_since(start);
         const json& force = c.at("qoi").at("force_N");
-        std::printf("[%zu/%zu] %-26s N = %-5s F·d = %s N  build %.1f ms  %s  (elapsed %.1f s, ~%.0f s left)\n", done,
+        std::string flags;
+        for (const auto& flag : c.at("accuracy").at("flags")) flags += (flags.empty() ? " [" : ", ") + flag.get<std::string>();
+        if (!flags.empty()) flags += "]";
+        std::printf("[%zu/%zu] %-26s N = %-5s F·d = %s N  build %.1f ms  %s%s  (elapsed %.1f s, ~%.0f s left)\n", done,
                     total, c.at("id").get<std::string>().c_str(), c.at("params").at("node_count").dump().c_str(),
                     force.is_array() ? format_number(axial_or_nan(force, d)).c_str() : "-",
-                    1e3 * c.at("time_s").at("build").get<double>(), c.at("status").get<std::string>().c_str(), elapsed,
-                    elapsed / done * (total - done));
+                    1e3 * c.at("time_s").at("build").get<double>(), c.at("status").get<std::string>().c_str(),
+                    flags.c_str(), elapsed, elapsed / done * (total - done));
         std::fflush(stdout);
       }
       document["cases"].push_back(std::move(c));
     }
+  }
   // Written with the results, so that a run that fails leaves no resolved config without them.
   write_file_atomically(options.output_directory + "/config.resolved.toml", resolved_config_toml(study));
   write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");

@@ -225,6 +225,7 @@ class ShortReports(unittest.TestCase):
             self.assertEqual(cells[1], str(c["params"]["node_count"]))
             self.assertEqual(cells[2], "%.4f" % (1e3 * c["qoi"]["axial_force_N"]))
             self.assertEqual(cells[6], c["status"])
+            self.assertEqual(cells[7], ", ".join(c["accuracy"]["flags"]) or "-")
 
     def test_sim(self):
         summary = load("sim_summary.json")

@@ -177,6 +177,15 @@ TEST_F(MfsStudyRun, ResultsJsonCarriesTheContract) {
     EXPECT_TRUE(fs::is_regular_file(output() / c.at("vtu").get<std::string>()));
   }
   EXPECT_EQ(document.dump().find("NaN"), std::string::npos);
+  // Each case says what it can about its own accuracy without a reference (as `study` does).
+  for (const json& c : cases) {
+    ASSERT_TRUE(c.contains("accuracy")) << c.at("id");
+    EXPECT_TRUE(c.at("accuracy").at("flags").is_array()) << c.at("id");
+    EXPECT_GT(c.at("accuracy").at("stiffness_ratio").get<double>(), 0.1) << c.at("id");
+  }
+  EXPECT_TRUE(cases[0].at("accuracy").at("force_change_from_previous_n").is_null());
+  EXPECT_EQ(cases[1].at("accuracy").at("previous_node_count"), 34);
+  EXPECT_GT(cases[1].at("accuracy").at("force_change_from_previous_n").get<double>(), 0.0);
 }
 
 TEST_F(MfsStudyRun, ResolvedConfigReadsBackToTheSameStudy) {
