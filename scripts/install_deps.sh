@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  g++ cmake ninja-build make pkg-config git
+  g++ cmake ninja-build make pkg-config git lld
   # numerics and the reference model
   libeigen3-dev libdeal.ii-dev openmpi-bin libopenblas0 libssl-dev
   # meshes

@@ -34,18 +34,7 @@ constexpr double pi = 3.14159265358979323846;
 /// energy at O(h⁴) for the smooth traces here.
 constexpr double energy_convergence_order = 2.0;
 
-json matrix_json(const Eigen::Matrix3d& m, int n) {
-  json rows = json::array();
-  for (int i = 0; i < n; ++i) {
-    json row = json::array();
-    for (int j = 0; j < n; ++j) row.push_back(m(i, j));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 Eigen::Vector3d to_eigen(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
-
 
 constexpr std::array<PunchMode, 3> mode_order{{PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2}};
 

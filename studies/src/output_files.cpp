@@ -27,9 +27,13 @@ json json_number(double value) { return std::isfinite(value) ? json(value) : jso
 
 json vector_json(const Eigen::Vector3d& v) { return json::array({json_number(v[0]), json_number(v[1]), json_number(v[2])}); }
 
-json matrix_json(const Eigen::Matrix3d& m) {
+json matrix_json(const Eigen::Matrix3d& m, int n) {
   json rows = json::array();
-  for (int i = 0; i < 3; ++i) rows.push_back(vector_json(m.row(i).transpose()));
+  for (int i = 0; i < n; ++i) {
+    json row = json::array();
+    for (int j = 0; j < n; ++j) row.push_back(json_number(m(i, j)));
+    rows.push_back(std::move(row));
+  }
   return rows;
 }
 

@@ -18,7 +18,7 @@ namespace touchstone::studies {
 /// A finite number as itself, a non-finite one as null (JSON has no NaN).
 nlohmann::json json_number(double value);
 nlohmann::json vector_json(const Eigen::Vector3d& v);  ///< [x, y, z], non-finite → null
-nlohmann::json matrix_json(const Eigen::Matrix3d& m);  ///< rows, non-finite → null
+nlohmann::json matrix_json(const Eigen::Matrix3d& m, int n = 3);  ///< rows of the top-left n×n block, non-finite → null
 /// A JSON number, or NaN when it is null, absent or not a number.
 double value_or_nan(const nlohmann::json& j);
 double value_or_nan(const nlohmann::json& object, const char* key);
