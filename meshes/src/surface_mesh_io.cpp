@@ -23,6 +23,7 @@
 #include <vtkSmartPointer.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
+#include <vtksys/SystemTools.hxx>
 
 #include <algorithm>
 #include <cctype>
@@ -184,6 +185,68 @@ void check_binary_stl_size(const std::string& path, std::uintmax_t size) {
   }
 }
 
+/// VTK 9.1's legacy reader reads on from a closed stream (a null dereference) when a cell list of
+/// an ASCII file ends early or holds something other than an integer: each list is checked
+/// first for the values its header declares, `size` of them (layout before version 5), or
+/// `count` offsets and `size` connectivity entries (version 5). Cell lists come before the
+/// point and cell data, where names are free text: the scan stops there.
+void check_legacy_cell_lists(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::getline(in, line);  // signature
+  std::getline(in, line);  // title: free text
+  const auto integer = [](const std::string& word, unsigned long long* value) {
+    const char* begin = word.data() + (!word.empty() && word[0] == '+' ? 1 : 0);
+    long long parsed = 0;
+    const auto [stop, error] = std::from_chars(begin, word.data() + word.size(), parsed);
+    if (error != std::errc() || stop != word.data() + word.size()) return false;
+    if (value != nullptr) {
+      if (parsed < 0) return false;
+      *value = static_cast<unsigned long long>(parsed);
+    }
+    return true;
+  };
+  const auto require_values = [&](const std::string& list, unsigned long long declared) {
+    std::string word;
+    for (unsigned long long read = 0; read < declared; ++read) {
+      if (!(in >> word)) {
+        fail(path, "truncated legacy VTK file: " + list + " declares " + std::to_string(declared) +
+                       " values, the file ends after " + std::to_string(read));
+      }
+      if (!integer(word, nullptr)) {
+        fail(path, "malformed legacy VTK file: " + list + " declares " + std::to_string(declared) + " values, value " +
+                       std::to_string(read + 1) + " is '" + word + "', not an integer");
+      }
+    }
+  };
+  std::string word;
+  while (in >> word) {
+    if (word == "POINT_DATA" || word == "CELL_DATA") return;
+    if (word != "VERTICES" && word != "LINES" && word != "POLYGONS" && word != "TRIANGLE_STRIPS") continue;
+    const std::string list = word;
+    std::string count_word, size_word;
+    unsigned long long count = 0, size = 0;
+    if (!(in >> count_word >> size_word) || !integer(count_word, &count) || !integer(size_word, &size)) {
+      fail(path, "malformed legacy VTK file: " + list + " must be followed by two counts, found '" + count_word + " " +
+                     size_word + "'");
+    }
+    const std::streampos after_counts = in.tellg();
+    std::string next, type;
+    if (in >> next && next == "OFFSETS") {
+      in >> type;
+      require_values("OFFSETS of " + list, count);
+      if (!(in >> next >> type) || next != "CONNECTIVITY") {
+        fail(path, "malformed legacy VTK file: " + list + " has OFFSETS but no CONNECTIVITY after them");
+      }
+      require_values("CONNECTIVITY of " + list, size);
+    } else {
+      in.clear();
+      in.seekg(after_counts);
+      require_values(list, size);
+    }
+  }
+}
+
 /// VTK allocates what a header declares before it reads the data: a corrupt count would claim
 /// gigabytes. The counts are checked against the file size first: legacy files store at least
 /// 6 bytes (ASCII "0 0 0 ") or 12 bytes (binary floats) per point; VTK XML files may compress,
@@ -218,8 +281,10 @@ void check_declared_sizes(const std::string& path, SurfaceFormat format, std::ui
     if (dot == std::string::npos || !digits(version.substr(0, dot)) || !digits(version.substr(dot + 1))) {
       fail(path, "not a legacy VTK file: the first line must be '# vtk DataFile Version <major>.<minor>'");
     }
+    const bool binary = head.find("\nBINARY") != std::string::npos;
+    if (!binary) check_legacy_cell_lists(path);
     if (number_after("\nPOINTS ", 0, points) == std::string::npos) return;  // VTK will say what is wrong
-    bytes_per_point = head.find("\nBINARY") != std::string::npos ? 12 : 6;
+    bytes_per_point = binary ? 12 : 6;
   } else {
     // Every piece's NumberOfPoints="N".
     for (std::size_t at = 0;;) {
@@ -345,6 +410,11 @@ void append_polydata(vtkPolyData* data, const std::string& path, const char* kin
 
 void read_stl(const std::string& path, SurfaceMesh& mesh) {
   const std::uintmax_t size = require_file(path);
+  // VTK sizes its arrays by a binary file's facet count before reading the facets: a corrupt
+  // count claims gigabytes. It is checked against the file size first, for every file VTK will
+  // read as binary (its own test: vtkSTLReader takes all but plain text for binary).
+  if (vtksys::SystemTools::DetectFileType(path.c_str()) != vtksys::SystemTools::FileTypeText)
+    check_binary_stl_size(path, size);
   vtkNew<VtkMessages> messages;
   vtkNew<vtkSTLReader> reader;
   messages->watch(reader);
