@@ -13,6 +13,8 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -490,6 +492,36 @@ TEST(SurfaceMeshIo, LegacyCellListsCutShortFailClearly) {
       "POLYGONS 2 3\nOFFSETS vtktypeint64\n0 3\nCONNECTIVITY vtktypeint64\n0 1\n";
   const std::string short_v5 = directory.file("short_v5.vtk", v5);
   expect_invalid_argument([&] { read_surface_mesh(short_v5); }, {short_v5, "CONNECTIVITY of POLYGONS declares 3 values", "ends after 2"});
+}
+
+// Found by fuzzing: a cell that claims more points than its list holds made VTK 9.1 read past
+// the list's buffer (a binary file here: the first triangle's point count became 2^20).
+TEST(SurfaceMeshIo, LegacyCellsClaimingMorePointsThanTheirListFailClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const auto big_endian = [](std::initializer_list<std::int32_t> values) {
+    std::string bytes;
+    for (const std::int32_t value : values)
+      for (int shift = 24; shift >= 0; shift -= 8) bytes += static_cast<char>((static_cast<std::uint32_t>(value) >> shift) & 0xff);
+    return bytes;
+  };
+  std::string points;
+  for (const float x : {1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f}) {
+    std::int32_t word;
+    std::memcpy(&word, &x, sizeof word);
+    points += big_endian({word});
+  }
+  const std::string header = "# vtk DataFile Version 3.0\ntetrahedron\nBINARY\nDATASET POLYDATA\nPOINTS 4 float\n" + points +
+                             "\nPOLYGONS 4 16\n";
+  const std::string faces = big_endian({3, 0, 1, 2, 3, 0, 3, 1, 3, 0, 2, 3, 3, 1, 3, 2});
+  ASSERT_NO_THROW(load_surface(directory.file("whole.vtk", header + faces + "\n")));
+  std::string corrupt = faces;
+  corrupt.replace(0, 4, big_endian({1 << 20}));
+  const std::string binary = directory.file("binary.vtk", header + corrupt + "\n");
+  expect_invalid_argument([&] { read_surface_mesh(binary); }, {binary, "POLYGONS cell 1 claims 1048576 points", "15 values left"});
+  const std::string ascii = directory.file("ascii.vtk",
+                                           "# vtk DataFile Version 4.2\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
+                                           "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n9 0 1 2\n");
+  expect_invalid_argument([&] { read_surface_mesh(ascii); }, {ascii, "POLYGONS cell 1 claims 9 points"});
 }
 
 // Found by fuzzing: text that VTK takes for a binary STL (NUL bytes among the first 256) with a
