@@ -209,8 +209,9 @@ class LegacyCellLists {
       if (keyword == "POINT_DATA" || keyword == "CELL_DATA") return;
       if (keyword == "POINTS" && binary_) {
         const unsigned long long count = counted(keyword, word());
-        const std::size_t width = type_width(word());
-        if (width == 0) return;  // VTK names the type it does not know
+        const std::string type = word();
+        const std::size_t width = type_width(type);
+        if (width == 0) fail(path_, "malformed legacy VTK file: POINTS of an unknown data type '" + type + "'");
         skip_binary(keyword, static_cast<double>(count) * 3 * static_cast<double>(width));
         continue;
       }

@@ -518,6 +518,11 @@ TEST(SurfaceMeshIo, LegacyCellsClaimingMorePointsThanTheirListFailClearly) {
   corrupt.replace(0, 4, big_endian({1 << 20}));
   const std::string binary = directory.file("binary.vtk", header + corrupt + "\n");
   expect_invalid_argument([&] { read_surface_mesh(binary); }, {binary, "POLYGONS cell 1 claims 1048576 points", "15 values left"});
+  // A mangled point type: VTK read on into the cells misaligned, past their buffer.
+  std::string mangled = header + corrupt + "\n";
+  mangled.replace(mangled.find("4 float"), 7, "4 fl\x83oat");
+  const std::string type = directory.file("type.vtk", mangled);
+  expect_invalid_argument([&] { read_surface_mesh(type); }, {type, "POINTS of an unknown data type"});
   const std::string ascii = directory.file("ascii.vtk",
                                            "# vtk DataFile Version 4.2\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
                                            "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n9 0 1 2\n");
