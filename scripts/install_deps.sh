@@ -20,6 +20,8 @@ packages=(
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   # tests, benchmarks, plots
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-matplotlib python3-jsonschema python3-vtk9
+  # fuzzing the parsers (scripts/fuzz.sh): clang with libFuzzer
+  clang libfuzzer-14-dev
 )
 
 missing=()

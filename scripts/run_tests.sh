@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The default test run on a fresh Debian 12 machine: install, build, run every test not
-# labelled "large" (ctest -L large runs those), then the threaded tests under ThreadSanitizer.
+# labelled "large" (ctest -L large runs those), then the threaded tests under ThreadSanitizer,
+# then every parser's fuzz harness for a few seconds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -13,3 +14,6 @@ ctest --preset release -j "$(nproc)" "$@"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan --target threaded_tests -j "$(nproc)"
 ctest --preset tsan-threaded -j "$(nproc)"
+# Every parser's libFuzzer harness briefly, from its committed corpus (scripts/fuzz.sh runs
+# longer sessions): a crash, sanitizer report, leak or hang fails the run.
+./scripts/fuzz.sh "${TOUCHSTONE_FUZZ_SMOKE_SECONDS:-10}"

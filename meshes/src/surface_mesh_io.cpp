@@ -23,6 +23,7 @@
 #include <vtkSmartPointer.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
+#include <vtksys/SystemTools.hxx>
 
 #include <algorithm>
 #include <cctype>
@@ -184,6 +185,158 @@ void check_binary_stl_size(const std::string& path, std::uintmax_t size) {
   }
 }
 
+/// VTK 9.1's legacy reader trusts a file's cell lists: a list cut short or holding a word makes
+/// it read on from a closed stream (a null dereference), and a cell that claims more points than
+/// its list holds makes it read past its buffer. Every list is checked first: the values its
+/// header declares are there and are integers, and the cells fit the list exactly (`size`
+/// values of "n id…" records before version 5; `count` offsets from 0 to `size` and `size`
+/// connectivity entries from version 5). ASCII files are read word by word, binary ones skip
+/// their point coordinates and read the lists' big-endian integers. Cell lists come before the
+/// point and cell data, where names are free text: the scan stops there.
+class LegacyCellLists {
+ public:
+  LegacyCellLists(const std::string& path, bool binary) : path_(path), binary_(binary) {
+    std::ifstream in(path, std::ios::binary);
+    bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    for (int line = 0; line < 2; ++line) {  // the signature and the title (free text)
+      const std::size_t end = bytes_.find('\n', at_);
+      at_ = end == std::string::npos ? bytes_.size() : end + 1;
+    }
+  }
+
+  void check() {
+    for (std::string keyword = word(); !keyword.empty(); keyword = word()) {
+      if (keyword == "POINT_DATA" || keyword == "CELL_DATA") return;
+      if (keyword == "POINTS" && binary_) {
+        const unsigned long long count = counted(keyword, word());
+        const std::string type = word();
+        const std::size_t width = type_width(type);
+        if (width == 0) fail(path_, "malformed legacy VTK file: POINTS of an unknown data type '" + type + "'");
+        skip_binary(keyword, static_cast<double>(count) * 3 * static_cast<double>(width));
+        continue;
+      }
+      if (keyword != "VERTICES" && keyword != "LINES" && keyword != "POLYGONS" && keyword != "TRIANGLE_STRIPS") continue;
+      const unsigned long long count = counted(keyword, word());
+      const unsigned long long size = counted(keyword, word());
+      const std::size_t before_layout = at_;
+      if (word() == "OFFSETS") {
+        const std::vector<long long> offsets = values("OFFSETS of " + keyword, count, type_width(word()));
+        if (word() != "CONNECTIVITY") fail(path_, "malformed legacy VTK file: " + keyword + " has OFFSETS but no CONNECTIVITY after them");
+        values("CONNECTIVITY of " + keyword, size, type_width(word()));
+        for (std::size_t k = 0; k < offsets.size(); ++k) {
+          if ((k == 0 && offsets[k] != 0) || (k > 0 && offsets[k] < offsets[k - 1]) ||
+              offsets[k] > static_cast<long long>(size) || (k + 1 == offsets.size() && offsets[k] != static_cast<long long>(size))) {
+            fail(path_, "malformed legacy VTK file: OFFSETS of " + keyword + ": offset " + std::to_string(k + 1) + " is " +
+                            std::to_string(offsets[k]) + "; offsets must rise from 0 to the connectivity size " +
+                            std::to_string(size));
+          }
+        }
+        continue;
+      }
+      at_ = before_layout;
+      const std::vector<long long> list = values(keyword, size, 4);
+      unsigned long long cells = 0;
+      for (std::size_t k = 0; k < list.size(); k += static_cast<std::size_t>(list[k]) + 1) {
+        ++cells;
+        if (list[k] < 0 || static_cast<unsigned long long>(list[k]) >= list.size() - k) {
+          fail(path_, "malformed legacy VTK file: " + keyword + " cell " + std::to_string(cells) + " claims " +
+                          std::to_string(list[k]) + " points, the list has " + std::to_string(list.size() - k - 1) +
+                          " values left");
+        }
+      }
+      if (cells != count) {
+        fail(path_, "malformed legacy VTK file: " + keyword + " declares " + std::to_string(count) + " cells, its " +
+                        std::to_string(size) + " values hold " + std::to_string(cells));
+      }
+    }
+  }
+
+ private:
+  /// The next whitespace-separated word ("" at the end of the file).
+  std::string word() {
+    while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
+    const std::size_t begin = at_;
+    while (at_ < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
+    return bytes_.substr(begin, at_ - begin);
+  }
+
+  static bool integer(const std::string& text, long long& value) {
+    const char* begin = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+    const auto [stop, error] = std::from_chars(begin, text.data() + text.size(), value);
+    return error == std::errc() && stop == text.data() + text.size() && begin != stop;
+  }
+
+  unsigned long long counted(const std::string& keyword, const std::string& text) const {
+    long long value = 0;
+    if (!integer(text, value) || value < 0)
+      fail(path_, "malformed legacy VTK file: " + keyword + " must be followed by counts, found '" + text + "'");
+    return static_cast<unsigned long long>(value);
+  }
+
+  /// Bytes per value of a legacy data type; 0 for a type name VTK does not know either.
+  static std::size_t type_width(const std::string& type) {
+    if (type == "bit" || type == "char" || type == "unsigned_char") return 1;
+    if (type == "short" || type == "unsigned_short") return 2;
+    if (type == "int" || type == "unsigned_int" || type == "float") return 4;
+    if (type == "long" || type == "unsigned_long" || type == "double" || type == "vtkIdType" ||
+        type == "vtktypeint64" || type == "vtktypeuint64")
+      return 8;
+    return 0;
+  }
+
+  /// Binary data starts after the end of its header line.
+  void skip_binary(const std::string& what, double byte_count) {
+    const std::size_t end = bytes_.find('\n', at_);
+    at_ = end == std::string::npos ? bytes_.size() : end + 1;
+    if (byte_count > static_cast<double>(bytes_.size() - at_))
+      fail(path_, "truncated legacy VTK file: " + what + " needs " + text_of(byte_count) + " bytes, the file has " +
+                      std::to_string(bytes_.size() - at_) + " left");
+    at_ += static_cast<std::size_t>(byte_count);
+  }
+
+  /// `declared` integers: words of an ASCII file, big-endian values of `width` bytes (a signed
+  /// 32- or 64-bit type: VTK's cell lists) in a binary one.
+  std::vector<long long> values(const std::string& list, unsigned long long declared, std::size_t width) {
+    std::vector<long long> read;
+    if (binary_) {
+      if (width != 4 && width != 8) fail(path_, "malformed legacy VTK file: " + list + " is not of an integer type");
+      const std::size_t start = bytes_.find('\n', at_) == std::string::npos ? bytes_.size() : bytes_.find('\n', at_) + 1;
+      const std::size_t left = (bytes_.size() - start) / width;
+      if (declared > left) {
+        fail(path_, "truncated legacy VTK file: " + list + " declares " + std::to_string(declared) +
+                        " values, the file ends after " + std::to_string(left));
+      }
+      at_ = start;
+      read.reserve(static_cast<std::size_t>(declared));
+      for (unsigned long long k = 0; k < declared; ++k) {
+        unsigned long long word = 0;
+        for (std::size_t b = 0; b < width; ++b) word = (word << 8) | static_cast<unsigned char>(bytes_[at_++]);
+        read.push_back(width == 4 ? static_cast<long long>(static_cast<std::int32_t>(word)) : static_cast<long long>(word));
+      }
+      return read;
+    }
+    for (unsigned long long k = 0; k < declared; ++k) {
+      const std::string text = word();
+      long long value = 0;
+      if (text.empty()) {
+        fail(path_, "truncated legacy VTK file: " + list + " declares " + std::to_string(declared) +
+                        " values, the file ends after " + std::to_string(k));
+      }
+      if (!integer(text, value)) {
+        fail(path_, "malformed legacy VTK file: " + list + " declares " + std::to_string(declared) + " values, value " +
+                        std::to_string(k + 1) + " is '" + text + "', not an integer");
+      }
+      read.push_back(value);
+    }
+    return read;
+  }
+
+  const std::string& path_;
+  bool binary_;
+  std::string bytes_;
+  std::size_t at_ = 0;
+};
+
 /// VTK allocates what a header declares before it reads the data: a corrupt count would claim
 /// gigabytes. The counts are checked against the file size first: legacy files store at least
 /// 6 bytes (ASCII "0 0 0 ") or 12 bytes (binary floats) per point; VTK XML files may compress,
@@ -218,8 +371,10 @@ void check_declared_sizes(const std::string& path, SurfaceFormat format, std::ui
     if (dot == std::string::npos || !digits(version.substr(0, dot)) || !digits(version.substr(dot + 1))) {
       fail(path, "not a legacy VTK file: the first line must be '# vtk DataFile Version <major>.<minor>'");
     }
+    const bool binary = head.find("\nBINARY") != std::string::npos;
+    LegacyCellLists(path, binary).check();
     if (number_after("\nPOINTS ", 0, points) == std::string::npos) return;  // VTK will say what is wrong
-    bytes_per_point = head.find("\nBINARY") != std::string::npos ? 12 : 6;
+    bytes_per_point = binary ? 12 : 6;
   } else {
     // Every piece's NumberOfPoints="N".
     for (std::size_t at = 0;;) {
@@ -345,6 +500,11 @@ void append_polydata(vtkPolyData* data, const std::string& path, const char* kin
 
 void read_stl(const std::string& path, SurfaceMesh& mesh) {
   const std::uintmax_t size = require_file(path);
+  // VTK sizes its arrays by a binary file's facet count before reading the facets: a corrupt
+  // count claims gigabytes. It is checked against the file size first, for every file VTK will
+  // read as binary (its own test: vtkSTLReader takes all but plain text for binary).
+  if (vtksys::SystemTools::DetectFileType(path.c_str()) != vtksys::SystemTools::FileTypeText)
+    check_binary_stl_size(path, size);
   vtkNew<VtkMessages> messages;
   vtkNew<vtkSTLReader> reader;
   messages->watch(reader);

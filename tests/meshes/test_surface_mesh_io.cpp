@@ -11,6 +11,10 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -22,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace touchstone::meshes {
@@ -466,6 +471,93 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
   SurfaceReadOptions groups;
   groups.msh_groups = {"free"};
   expect_invalid_argument([&] { read_surface_mesh(directory.path("good_s.obj"), groups); }, {"msh_groups", ".msh files only"});
+}
+
+// Found by fuzzing (tests/fuzz): VTK 9.1's legacy reader crashes (a null stream) when the cell
+// list of an ASCII file ends early or holds a word; the reader checks the lists first.
+TEST(SurfaceMeshIo, LegacyCellListsCutShortFailClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const std::string header =
+      "# vtk DataFile Version 4.2\noctahedron\nASCII\nDATASET POLYDATA\nPOINTS 6 double\n"
+      "1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1\nPOLYGONS 8 32\n"
+      "3 0 2 4\n3 2 1 4\n3 1 3 4\n3 3 0 4\n3 2 0 5\n3 1 2 5\n3 3 1 5\n";
+  ASSERT_NO_THROW(load_surface(directory.file("whole.vtk", header + "3 0 3 5\n")));
+  const std::string word = directory.file("word.vtk", header + "N10__cxxabiv120__si_class_type_in3 0 3 5\n");
+  expect_invalid_argument([&] { read_surface_mesh(word); }, {word, "POLYGONS", "'N10__cxxabiv120__si_class_type_in3'"});
+  const std::string cut = directory.file("cut.vtk", header);
+  expect_invalid_argument([&] { read_surface_mesh(cut); }, {cut, "POLYGONS declares 32 values", "ends after 28"});
+  // The version 5 layout: offsets, then connectivity.
+  const std::string v5 =
+      "# vtk DataFile Version 5.1\ntriangle\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n0 0 0 1 0 0 0 1 0\n"
+      "POLYGONS 2 3\nOFFSETS vtktypeint64\n0 3\nCONNECTIVITY vtktypeint64\n0 1\n";
+  const std::string short_v5 = directory.file("short_v5.vtk", v5);
+  expect_invalid_argument([&] { read_surface_mesh(short_v5); }, {short_v5, "CONNECTIVITY of POLYGONS declares 3 values", "ends after 2"});
+}
+
+// Found by fuzzing: a cell that claims more points than its list holds made VTK 9.1 read past
+// the list's buffer (a binary file here: the first triangle's point count became 2^20).
+TEST(SurfaceMeshIo, LegacyCellsClaimingMorePointsThanTheirListFailClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const auto big_endian = [](std::initializer_list<std::int32_t> values) {
+    std::string bytes;
+    for (const std::int32_t value : values)
+      for (int shift = 24; shift >= 0; shift -= 8) bytes += static_cast<char>((static_cast<std::uint32_t>(value) >> shift) & 0xff);
+    return bytes;
+  };
+  std::string points;
+  for (const float x : {1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f}) {
+    std::int32_t word;
+    std::memcpy(&word, &x, sizeof word);
+    points += big_endian({word});
+  }
+  const std::string header = "# vtk DataFile Version 3.0\ntetrahedron\nBINARY\nDATASET POLYDATA\nPOINTS 4 float\n" + points +
+                             "\nPOLYGONS 4 16\n";
+  const std::string faces = big_endian({3, 0, 1, 2, 3, 0, 3, 1, 3, 0, 2, 3, 3, 1, 3, 2});
+  ASSERT_NO_THROW(load_surface(directory.file("whole.vtk", header + faces + "\n")));
+  std::string corrupt = faces;
+  corrupt.replace(0, 4, big_endian({1 << 20}));
+  const std::string binary = directory.file("binary.vtk", header + corrupt + "\n");
+  expect_invalid_argument([&] { read_surface_mesh(binary); }, {binary, "POLYGONS cell 1 claims 1048576 points", "15 values left"});
+  // A mangled point type: VTK read on into the cells misaligned, past their buffer.
+  std::string mangled = header + corrupt + "\n";
+  mangled.replace(mangled.find("4 float"), 7, "4 fl\x83oat");
+  const std::string type = directory.file("type.vtk", mangled);
+  expect_invalid_argument([&] { read_surface_mesh(type); }, {type, "POINTS of an unknown data type"});
+  const std::string ascii = directory.file("ascii.vtk",
+                                           "# vtk DataFile Version 4.2\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
+                                           "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n9 0 1 2\n");
+  expect_invalid_argument([&] { read_surface_mesh(ascii); }, {ascii, "POLYGONS cell 1 claims 9 points"});
+}
+
+// Found by fuzzing: text that VTK takes for a binary STL (NUL bytes among the first 256) with a
+// header "count" of half a billion facets made VTK ask for ~20 GB before reading. Under a 2 GB
+// address-space limit (a child process: the limit stays there) the count must be refused
+// before VTK allocates, with the file's own numbers.
+TEST(SurfaceMeshIo, BinaryStlCountIsCheckedBeforeVtkAllocates) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "sanitizers reserve terabytes of address space: no address-space limit possible";
+#else
+  const TemporaryDirectory directory("surface_io");
+  std::string bytes = "solid octahedron\n";
+  bytes.resize(80, '\0');
+  bytes += "tex ";  // 544,761,204 facets, little-endian
+  bytes.resize(84 + 2 * 50, '\0');
+  const std::string path = directory.file("text_with_nul.stl", bytes);
+  const auto read_with_2_gb = [&] {
+    const rlimit limit{rlim_t{2} << 30, rlim_t{2} << 30};
+    if (setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(2);
+    try {
+      read_surface_mesh(path);
+    } catch (const std::invalid_argument& error) {
+      const bool named = std::string(error.what()).find("header announces 544761204 facets, the file holds 2") !=
+                         std::string::npos;
+      std::fprintf(stderr, "%s\n", error.what());
+      std::_Exit(named ? 0 : 1);
+    }
+    std::_Exit(3);
+  };
+  EXPECT_EXIT(read_with_2_gb(), ::testing::ExitedWithCode(0), "text_with_nul.stl");
+#endif
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {

@@ -1,5 +1,9 @@
 #include "touchstone/realtime/graphics/interactive_window.hpp"
 
+// Eigen before VTK: with clang, vtkXRenderWindowInteractor.h brings in X11's `Success` macro,
+// which breaks Eigen's decompositions (ComputationInfo::Success) included after it.
+#include <Eigen/Geometry>
+
 #include <vtkActor.h>
 #include <vtkArrowSource.h>
 #include <vtkCallbackCommand.h>
@@ -24,8 +28,6 @@
 #include <vtkSphereSource.h>
 #include <vtkWindowToImageFilter.h>
 #include <vtkXRenderWindowInteractor.h>
-
-#include <Eigen/Geometry>
 
 // Xlib last: its macros (Status, Bool, None, …) clash with names in the headers above.
 #include <X11/Xlib.h>

@@ -1,18 +1,18 @@
-// The OpenIGTLink device: connection, message parsing, pose and force exchange with a peer such
-// as 3D Slicer (one file: one protocol state machine whose parts share the socket's state).
+// The OpenIGTLink device: connection, pose and force exchange with a peer such as 3D Slicer
+// (one file: the socket's state shared by the network and graphics threads). The bytes → pose
+// parsing is openigtlink_parser.cpp.
 #include "touchstone/realtime/haptics/openigtlink_device.hpp"
+
+#include "touchstone/realtime/haptics/openigtlink_parser.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
 
-#include <igtlMessageHeader.h>
 #include <igtlPolyDataMessage.h>
 #include <igtlSensorMessage.h>
 #include <igtlTransformMessage.h>
 #include <igtlUnit.h>
 #include <igtl_header.h>
 #include <igtl_util.h>
-
-#include <Eigen/SVD>
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -42,25 +42,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr std::size_t header_size = IGTL_HEADER_SIZE;  // 58 bytes
-constexpr std::size_t transform_body_size = 48;        // 12 float32: 3×3 rotation columns, then translation
 constexpr std::size_t max_device_name_length = IGTL_HEADER_NAME_SIZE;
-constexpr std::size_t extended_header_size = 12;      // header version 2: sizes and message id before the content
-constexpr std::size_t max_v2_pose_body_size = 65536;  // a pose with more metadata than this is not a pose
-
-bool valid_position_size(std::uint64_t size) { return size == 12 || size == 24 || size == 28; }
-
-std::uint32_t big_endian_32(const unsigned char* bytes) {
-  return (std::uint32_t{bytes[0]} << 24) | (std::uint32_t{bytes[1]} << 16) | (std::uint32_t{bytes[2]} << 8) |
-         std::uint32_t{bytes[3]};
-}
-
-float big_endian_float(const unsigned char* bytes) {
-  const std::uint32_t word = big_endian_32(bytes);
-  float value;
-  std::memcpy(&value, &word, sizeof value);
-  return value;
-}
 
 std::string errno_text(int error) { return std::error_code(error, std::system_category()).message(); }
 
@@ -114,26 +96,6 @@ bool send_all(int fd, const void* data, std::size_t size, Clock::time_point dead
   return true;
 }
 
-/// The header's type name: printable ASCII, NUL-padded to 12 bytes, not empty.
-bool valid_type_name(const char (&name)[IGTL_HEADER_TYPE_SIZE]) {
-  std::size_t length = 0;
-  while (length < IGTL_HEADER_TYPE_SIZE && name[length] != '\0') {
-    if (name[length] < 0x20 || name[length] >= 0x7f) return false;
-    ++length;
-  }
-  for (std::size_t i = length; i < IGTL_HEADER_TYPE_SIZE; ++i)
-    if (name[i] != '\0') return false;
-  return length > 0;
-}
-
-/// A device name for messages: printable characters kept, others shown as '?'.
-std::string printable_name(const char* name, std::size_t capacity) {
-  std::string out(name, strnlen(name, capacity));
-  for (char& c : out)
-    if (c < 0x20 || c >= 0x7f) c = '?';
-  return out;
-}
-
 }  // namespace
 
 void OpenIgtLinkSettings::validate() const {
@@ -160,24 +122,27 @@ void OpenIgtLinkSettings::validate() const {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The network thread: sockets, the incremental message parser and the force stream.
+// The network thread: sockets, the message parser and the force stream.
 
 struct OpenIgtLinkDevice::Network {
+  /// The connection's counts; the parser counts its own outcomes.
   struct Counters {
-    std::atomic<std::uint64_t> transforms_received{0}, positions_received{0}, messages_skipped{0},
-        rejected_bad_header{0}, rejected_oversized{0}, rejected_truncated{0}, rejected_bad_body_size{0},
-        rejected_bad_crc{0}, rejected_non_finite{0}, rejected_bad_rotation{0}, forces_sent{0}, forces_dropped{0},
-        polydata_sent{0}, tool_transforms_sent{0}, send_failures{0}, connections{0}, disconnects{0};
+    std::atomic<std::uint64_t> rejected_truncated{0}, forces_sent{0}, forces_dropped{0}, polydata_sent{0},
+        tool_transforms_sent{0}, send_failures{0}, connections{0}, disconnects{0};
   };
-  /// What to do with the body of the message being received.
-  enum class BodyUse { discard, transform, position, transform_v2, position_v2 };
-  /// Outcome of one parsed message or header: go on, or close the connection (framing lost).
-  enum class Verdict { keep_connection, close_connection };
 
-  explicit Network(OpenIgtLinkDevice& owner) : device(owner) {}
+  explicit Network(OpenIgtLinkDevice& owner)
+      : device(owner),
+        parser(
+            owner.settings_.max_message_body_bytes, owner.settings_.length_unit_m,
+            [this](const Eigen::Vector3d& position_m, const Eigen::Quaterniond& orientation) {
+              publish_pose(position_m, orientation);
+            },
+            [this](const std::string& reason) { note(reason); }) {}
 
   OpenIgtLinkDevice& device;
   Counters counts;
+  OpenIgtLinkParser parser;  ///< network thread only
   std::thread thread;
   std::atomic<bool> stop_requested{false};
   std::atomic<int> bound_port{0};
@@ -194,17 +159,6 @@ struct OpenIgtLinkDevice::Network {
   mutable std::mutex rejection_mutex;
   std::string last_rejection;
 
-  // Parser state (network thread only).
-  std::array<unsigned char, header_size> header_bytes{};
-  std::size_t header_filled = 0;
-  bool in_body = false;
-  std::uint64_t body_left = 0;
-  BodyUse body_use = BodyUse::discard;
-  std::vector<unsigned char> body = std::vector<unsigned char>(max_v2_pose_body_size);  ///< kept bodies only
-  std::size_t body_filled = 0;
-  std::uint64_t message_crc = 0;  ///< the header's CRC-64 of the body being received
-  std::string message_type;
-  std::string message_device;
   std::vector<unsigned char> receive_buffer = std::vector<unsigned char>(std::size_t{1} << 16);
 
   // Published pose (network thread's copy) and the force stream.
@@ -213,8 +167,6 @@ struct OpenIgtLinkDevice::Network {
   concurrency::PlainVector3 last_force_N{};
 
   // libOpenIGTLink messages, created by start() (before the thread runs) and reused.
-  igtl::MessageHeader::Pointer header_message;
-  igtl::TransformMessage::Pointer transform_message;
   igtl::SensorMessage::Pointer sensor_message;
 
   void create_messages();
@@ -224,18 +176,9 @@ struct OpenIgtLinkDevice::Network {
   void open_client(int fd);
   void close_client(bool send_zero_force);
   void receive_available();
-  Verdict feed(const unsigned char* data, std::size_t size);
-  Verdict on_header();
-  Verdict on_body();
-  Verdict on_transform();
-  Verdict on_v2_pose(bool transform);
-  Verdict accept_transform(const igtl::Matrix4x4& matrix);
-  Verdict accept_position(const unsigned char* content, std::size_t size);
   void publish_pose(const Eigen::Vector3d& position_m, const Eigen::Quaterniond& orientation);
   void send_force(bool zero, bool wait_for_lock);
-  void reset_parser();
   void note(const std::string& what);
-  std::string describe() const { return message_type + " message from '" + message_device + "'"; }
   Clock::duration force_period() const {
     return std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(1.0 / device.settings_.force_send_rate_hz));
@@ -243,9 +186,7 @@ struct OpenIgtLinkDevice::Network {
 };
 
 void OpenIgtLinkDevice::Network::create_messages() {
-  if (header_message) return;
-  header_message = igtl::MessageHeader::New();
-  transform_message = igtl::TransformMessage::New();
+  if (sensor_message) return;
   sensor_message = igtl::SensorMessage::New();
   sensor_message->SetDeviceName(device.settings_.force_device_name.c_str());
   sensor_message->SetLength(3);
@@ -297,7 +238,7 @@ void OpenIgtLinkDevice::Network::open_client(int fd) {
   }
   client_open.store(true, std::memory_order_release);
   counts.connections.fetch_add(1, std::memory_order_relaxed);
-  reset_parser();
+  parser.reset();
   next_force_time = Clock::now();
 }
 
@@ -317,7 +258,7 @@ void OpenIgtLinkDevice::Network::close_client(bool send_zero_force) {
   }
   client_open.store(false, std::memory_order_release);
   counts.disconnects.fetch_add(1, std::memory_order_relaxed);
-  reset_parser();
+  parser.reset();
 }
 
 void OpenIgtLinkDevice::Network::serve_client() {
@@ -343,7 +284,8 @@ void OpenIgtLinkDevice::Network::receive_available() {
   for (int round = 0; round < 4; ++round) {
     const ssize_t received = ::recv(client_fd, receive_buffer.data(), receive_buffer.size(), MSG_DONTWAIT);
     if (received > 0) {
-      if (feed(receive_buffer.data(), static_cast<std::size_t>(received)) == Verdict::close_connection) {
+      if (parser.feed(receive_buffer.data(), static_cast<std::size_t>(received)) ==
+          OpenIgtLinkParser::Verdict::close_connection) {
         close_client(false);
         return;
       }
@@ -352,245 +294,13 @@ void OpenIgtLinkDevice::Network::receive_available() {
     if (received < 0 && errno == EINTR) continue;
     if (received < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
     // End of stream (0) or a socket error: the peer is gone.
-    if (in_body || header_filled > 0) {
+    if (parser.inside_message()) {
       counts.rejected_truncated.fetch_add(1, std::memory_order_relaxed);
-      note(in_body ? describe() + ": connection lost with " + std::to_string(body_left) + " body bytes missing"
-                   : "connection lost inside a message header (" + std::to_string(header_filled) + " of 58 bytes)");
+      note(parser.truncation_note());
     }
     close_client(false);
     return;
   }
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::feed(const unsigned char* data, std::size_t size) {
-  while (size > 0) {
-    if (!in_body) {
-      const std::size_t take = std::min(size, header_size - header_filled);
-      std::memcpy(header_bytes.data() + header_filled, data, take);
-      header_filled += take;
-      data += take;
-      size -= take;
-      if (header_filled < header_size) break;
-      if (on_header() == Verdict::close_connection) return Verdict::close_connection;
-      continue;
-    }
-    const std::size_t take = static_cast<std::size_t>(std::min<std::uint64_t>(size, body_left));
-    if (body_use != BodyUse::discard) std::memcpy(body.data() + body_filled, data, take);
-    body_filled += take;
-    body_left -= take;
-    data += take;
-    size -= take;
-    if (body_left == 0 && on_body() == Verdict::close_connection) return Verdict::close_connection;
-  }
-  return Verdict::keep_connection;
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::on_header() {
-  igtl_header header;
-  std::memcpy(&header, header_bytes.data(), header_size);
-  igtl_header_convert_byte_order(&header);
-  message_type.assign(header.name, strnlen(header.name, IGTL_HEADER_TYPE_SIZE));
-  message_device = printable_name(header.device_name, IGTL_HEADER_NAME_SIZE);
-  message_crc = header.crc;
-
-  // A header that is not one cannot be skipped: nothing after it can be trusted to be framed.
-  if ((header.version != 1 && header.version != 2) || !valid_type_name(header.name)) {
-    counts.rejected_bad_header.fetch_add(1, std::memory_order_relaxed);
-    note("bad OpenIGTLink header (version " + std::to_string(header.version) +
-         ", type name not NUL-padded text): closing the connection");
-    return Verdict::close_connection;
-  }
-  // Refuse before reading a byte of the body: skipping 2^40 bytes is no better than storing them.
-  if (header.body_size > device.settings_.max_message_body_bytes) {
-    counts.rejected_oversized.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": body of " + std::to_string(header.body_size) + " bytes exceeds max_message_body_bytes = " +
-         std::to_string(device.settings_.max_message_body_bytes) + ": closing the connection");
-    return Verdict::close_connection;
-  }
-
-  in_body = true;
-  body_left = header.body_size;
-  body_filled = 0;
-  body_use = BodyUse::discard;
-  const bool is_transform = message_type == "TRANSFORM";
-  const bool is_position = message_type == "POSITION";
-  if (header.version == 2 && (is_transform || is_position)) {
-    // Version 2 (3D Slicer's default): extended header, content, metadata. Sizes checked later.
-    if (header.body_size >= extended_header_size && header.body_size <= max_v2_pose_body_size) {
-      body_use = is_transform ? BodyUse::transform_v2 : BodyUse::position_v2;
-    } else {
-      counts.rejected_bad_body_size.fetch_add(1, std::memory_order_relaxed);
-      note(describe() + ": header version 2 body of " + std::to_string(header.body_size) +
-           " bytes, outside [12, 65536] for a pose");
-    }
-  } else if (header.version == 2) {
-    counts.messages_skipped.fetch_add(1, std::memory_order_relaxed);
-  } else if (is_transform) {
-    if (header.body_size == transform_body_size) {
-      body_use = BodyUse::transform;
-    } else {
-      counts.rejected_bad_body_size.fetch_add(1, std::memory_order_relaxed);
-      note(describe() + ": body of " + std::to_string(header.body_size) + " bytes, a TRANSFORM has 48");
-    }
-  } else if (is_position) {
-    if (valid_position_size(header.body_size)) {
-      body_use = BodyUse::position;
-    } else {
-      counts.rejected_bad_body_size.fetch_add(1, std::memory_order_relaxed);
-      note(describe() + ": body of " + std::to_string(header.body_size) + " bytes, a POSITION has 12, 24 or 28");
-    }
-  } else {
-    counts.messages_skipped.fetch_add(1, std::memory_order_relaxed);
-  }
-  if (body_left == 0) return on_body();
-  return Verdict::keep_connection;
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::on_body() {
-  const BodyUse use = body_use;
-  in_body = false;
-  header_filled = 0;
-  body_use = BodyUse::discard;
-  switch (use) {
-    case BodyUse::transform:
-      return on_transform();
-    case BodyUse::transform_v2:
-      return on_v2_pose(true);
-    case BodyUse::position_v2:
-      return on_v2_pose(false);
-    case BodyUse::position:
-      // Decoded here rather than by igtl::PositionMessage: in libOpenIGTLink 1.11 its
-      // SetMessageHeader() takes every body for the 28-byte layout and its byte-order
-      // conversion then touches all 28 bytes, past the end of a 12- or 24-byte body.
-      if (crc64(body.data(), body_filled, crc64(nullptr, 0, 0)) != message_crc) {
-        counts.rejected_bad_crc.fetch_add(1, std::memory_order_relaxed);
-        note(describe() + ": CRC-64 of the body does not match the header; message dropped");
-        return Verdict::keep_connection;
-      }
-      return accept_position(body.data(), body_filled);
-    case BodyUse::discard:
-      break;
-  }
-  return Verdict::keep_connection;
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::on_transform() {
-  // libOpenIGTLink unpacks the header, then the body with its CRC-64 check.
-  header_message->InitPack();
-  std::memcpy(header_message->GetPackPointer(), header_bytes.data(), header_size);
-  if (!(header_message->Unpack() & igtl::MessageHeader::UNPACK_HEADER)) {
-    counts.rejected_bad_header.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": libOpenIGTLink could not unpack the header");
-    return Verdict::keep_connection;
-  }
-  transform_message->SetMessageHeader(header_message);
-  transform_message->AllocatePack();
-  if (static_cast<std::size_t>(transform_message->GetPackBodySize()) != body_filled) {
-    counts.rejected_bad_body_size.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": body size does not match the message type");
-    return Verdict::keep_connection;
-  }
-  std::memcpy(transform_message->GetPackBodyPointer(), body.data(), body_filled);
-  if (!(transform_message->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) {
-    counts.rejected_bad_crc.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": CRC-64 of the body does not match the header; message dropped");
-    return Verdict::keep_connection;
-  }
-
-  igtl::Matrix4x4 matrix;
-  transform_message->GetMatrix(matrix);
-  return accept_transform(matrix);
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::on_v2_pose(bool transform) {
-  // libOpenIGTLink 1.11 predates header version 2: check the CRC (over the whole body) and
-  // locate the content by hand.
-  if (crc64(body.data(), body_filled, crc64(nullptr, 0, 0)) != message_crc) {
-    counts.rejected_bad_crc.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": CRC-64 of the body does not match the header; message dropped");
-    return Verdict::keep_connection;
-  }
-  const std::size_t ext_size = (std::size_t{body[0]} << 8) | body[1];
-  const std::size_t metadata_header_size = (std::size_t{body[2]} << 8) | body[3];
-  const std::size_t metadata_size = big_endian_32(body.data() + 4);
-  const std::size_t framing = ext_size + metadata_header_size + metadata_size;
-  const std::size_t content_size = framing <= body_filled ? body_filled - framing : 0;
-  const bool sizes_valid = ext_size >= extended_header_size && framing <= body_filled &&
-                           (transform ? content_size == transform_body_size : valid_position_size(content_size));
-  if (!sizes_valid) {
-    counts.rejected_bad_body_size.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": header version 2 sizes (extended header " + std::to_string(ext_size) + ", metadata " +
-         std::to_string(metadata_header_size) + " + " + std::to_string(metadata_size) + ") leave " +
-         std::to_string(content_size) + " content bytes of " + std::to_string(body_filled));
-    return Verdict::keep_connection;
-  }
-  const unsigned char* content = body.data() + ext_size;
-  if (!transform) return accept_position(content, content_size);
-  // TRANSFORM content: the 3×3 part column by column, then the translation (float32).
-  igtl::Matrix4x4 matrix;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) matrix[r][c] = r == c ? 1.0f : 0.0f;
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 3; ++r) matrix[r][c] = big_endian_float(content + 4 * (3 * c + r));
-  return accept_transform(matrix);
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::accept_transform(const igtl::Matrix4x4& matrix) {
-  Eigen::Matrix3d linear;
-  Eigen::Vector3d translation;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) linear(r, c) = matrix[r][c];
-    translation(r) = static_cast<double>(matrix[r][3]) * device.settings_.length_unit_m;
-  }
-  if (!linear.allFinite() || !translation.allFinite()) {
-    counts.rejected_non_finite.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": non-finite matrix element; message dropped");
-    return Verdict::keep_connection;
-  }
-  // The rotation is the orthogonal polar factor U·Vᵀ: a transform with scaling (as 3D Slicer
-  // may send) still gives the tool's orientation; singular or reflecting ones give none.
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(linear, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d sigma = svd.singularValues();
-  const Eigen::Matrix3d rotation = svd.matrixU() * svd.matrixV().transpose();
-  if (!(sigma(0) > 0) || sigma(2) <= 1e-6 * sigma(0) || rotation.determinant() < 0) {
-    counts.rejected_bad_rotation.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": the 3x3 part is singular or a reflection; message dropped");
-    return Verdict::keep_connection;
-  }
-  counts.transforms_received.fetch_add(1, std::memory_order_relaxed);
-  publish_pose(translation, Eigen::Quaterniond(rotation).normalized());
-  return Verdict::keep_connection;
-}
-
-OpenIgtLinkDevice::Network::Verdict OpenIgtLinkDevice::Network::accept_position(const unsigned char* content,
-                                                                                std::size_t size) {
-  // Big-endian float32: x, y, z, then ox, oy, oz (and w in the 28-byte form).
-  float values[7] = {0, 0, 0, 0, 0, 0, 1};
-  const std::size_t count = std::min<std::size_t>(size / 4, 7);  // 3, 6 or 7 (checked with the header)
-  for (std::size_t i = 0; i < count; ++i) values[i] = big_endian_float(content + 4 * i);
-  const Eigen::Vector3d translation = Eigen::Vector3d(values[0], values[1], values[2]) * device.settings_.length_unit_m;
-  Eigen::Quaterniond orientation(published.orientation_wxyz[0], published.orientation_wxyz[1],
-                                 published.orientation_wxyz[2], published.orientation_wxyz[3]);
-  if (count >= 6) {
-    const Eigen::Vector3d vector(values[3], values[4], values[5]);
-    // The 24-byte form leaves w ≥ 0 implicit; a vector part beyond unit length has none.
-    const double w = count == 7 ? static_cast<double>(values[6]) : std::sqrt(std::max(0.0, 1.0 - vector.squaredNorm()));
-    orientation = Eigen::Quaterniond(w, vector.x(), vector.y(), vector.z());
-  }
-  if (!translation.allFinite() || !orientation.coeffs().allFinite()) {
-    counts.rejected_non_finite.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": non-finite position or quaternion; message dropped");
-    return Verdict::keep_connection;
-  }
-  // float32 quaternions are unit to ~1e-7; far from unit means a sender bug, not rounding.
-  if (std::abs(orientation.norm() - 1.0) > 1e-2) {
-    counts.rejected_bad_rotation.fetch_add(1, std::memory_order_relaxed);
-    note(describe() + ": quaternion norm " + to_text(orientation.norm()) + " is not 1; message dropped");
-    return Verdict::keep_connection;
-  }
-  counts.positions_received.fetch_add(1, std::memory_order_relaxed);
-  publish_pose(translation, orientation.normalized());
-  return Verdict::keep_connection;
 }
 
 void OpenIgtLinkDevice::Network::publish_pose(const Eigen::Vector3d& position_m,
@@ -639,14 +349,6 @@ void OpenIgtLinkDevice::Network::send_force(bool zero, bool wait_for_lock) {
   note("SENSOR to the client: send failed or timed out; closing the connection");
   lock.unlock();
   close_client(false);
-}
-
-void OpenIgtLinkDevice::Network::reset_parser() {
-  header_filled = 0;
-  in_body = false;
-  body_left = 0;
-  body_filled = 0;
-  body_use = BodyUse::discard;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -862,18 +564,19 @@ bool OpenIgtLinkDevice::client_connected() const noexcept {
 
 OpenIgtLinkCounters OpenIgtLinkDevice::counters() const noexcept {
   const Network::Counters& c = network_->counts;
+  const OpenIgtLinkParserCounts& p = network_->parser.counts();
   const auto get = [](const std::atomic<std::uint64_t>& value) { return value.load(std::memory_order_relaxed); };
   OpenIgtLinkCounters out;
-  out.transforms_received = get(c.transforms_received);
-  out.positions_received = get(c.positions_received);
-  out.messages_skipped = get(c.messages_skipped);
-  out.rejected_bad_header = get(c.rejected_bad_header);
-  out.rejected_oversized = get(c.rejected_oversized);
+  out.transforms_received = get(p.transforms_received);
+  out.positions_received = get(p.positions_received);
+  out.messages_skipped = get(p.messages_skipped);
+  out.rejected_bad_header = get(p.rejected_bad_header);
+  out.rejected_oversized = get(p.rejected_oversized);
   out.rejected_truncated = get(c.rejected_truncated);
-  out.rejected_bad_body_size = get(c.rejected_bad_body_size);
-  out.rejected_bad_crc = get(c.rejected_bad_crc);
-  out.rejected_non_finite = get(c.rejected_non_finite);
-  out.rejected_bad_rotation = get(c.rejected_bad_rotation);
+  out.rejected_bad_body_size = get(p.rejected_bad_body_size);
+  out.rejected_bad_crc = get(p.rejected_bad_crc);
+  out.rejected_non_finite = get(p.rejected_non_finite);
+  out.rejected_bad_rotation = get(p.rejected_bad_rotation);
   out.forces_sent = get(c.forces_sent);
   out.forces_dropped = get(c.forces_dropped);
   out.polydata_sent = get(c.polydata_sent);
