@@ -1,5 +1,6 @@
 // Validation of triangle surfaces: one check per SurfaceDefectKind, each naming its count and
-// one example with the file's own numbers.
+// one example with the file's own numbers (one file: the checks share the edge and vertex maps
+// they are read from, and a reader runs them all in order).
 #include "surface_analysis.hpp"
 
 #include "touchstone/geometry/triangle_surface.hpp"
