@@ -6,9 +6,6 @@
 #include <toml++/toml.h>
 
 #include <cstdint>
-#include <map>
-#include <optional>
-#include <set>
 #include <stdexcept>
 
 namespace touchstone::studies {

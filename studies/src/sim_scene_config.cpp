@@ -30,10 +30,6 @@ const std::vector<Named<DeviceKind>> device_kinds{{"none", DeviceKind::none},
                                                   {"openhaptics", DeviceKind::openhaptics}};
 const std::vector<Named<rt::ForceMode>> force_modes{{"stiffness", rt::ForceMode::stiffness},
                                                     {"extrapolation", rt::ForceMode::extrapolation}};
-const std::vector<Named<meshes::OrganShape>> organ_shapes{{"stomach", meshes::OrganShape::stomach},
-                                                          {"hemisphere", meshes::OrganShape::hemisphere}};
-const std::vector<Named<geometry::ContactCondition>> contact_conditions{
-    {"frictionless", geometry::ContactCondition::frictionless}, {"bonded", geometry::ContactCondition::bonded}};
 
 /// Palpation sites are keys site0, site1, … of [device.scripted] (at most this many).
 constexpr int max_palpation_sites = 16;

@@ -24,8 +24,6 @@ const std::vector<Named<rc::BoundingVolume>> bounding_volumes{{"obb", rc::Boundi
 const std::vector<Named<rc::SplitRule>> split_rules{{"median", rc::SplitRule::median}, {"mean", rc::SplitRule::mean}};
 const std::vector<Named<hm::TremorSpectrum>> spectra{{"band_noise", hm::TremorSpectrum::band_noise},
                                                      {"sinusoids", hm::TremorSpectrum::sinusoids}};
-const std::vector<Named<meshes::OrganShape>> organ_shapes{{"stomach", meshes::OrganShape::stomach},
-                                                          {"hemisphere", meshes::OrganShape::hemisphere}};
 
 // ---------------------------------------------------------------------------------------------
 // The predictor's settings, shared by collision studies and sim scenes ([prediction]).

@@ -24,8 +24,6 @@ const std::vector<Named<meshes::Benchmark>> benchmarks{{"B1", meshes::Benchmark:
                                                        {"B3", meshes::Benchmark::B3},
                                                        {"B5", meshes::Benchmark::B5},
                                                        {"box", meshes::Benchmark::Box}};
-const std::vector<Named<geometry::ContactCondition>> contact_conditions{
-    {"frictionless", geometry::ContactCondition::frictionless}, {"bonded", geometry::ContactCondition::bonded}};
 // "mixed" is the recommended name of the mixed formulation (P2–P0, condensed) for ν ≥ 0.49,
 // where the displacement formulation locks.
 const std::vector<Named<fem::Formulation>> formulations{{"displacement", fem::Formulation::displacement},
@@ -155,17 +153,11 @@ const std::vector<SettingField<S>>& study_fields() {
   return fields;
 }
 
-/// The defaults of a study file where they differ from the structs' (the graded-mesh exponent
-/// β = 3/4 of the benchmark meshes).
+/// The one default of a study file that differs from the structs': the graded-mesh exponent
+/// β = 3/4 of the benchmark meshes.
 ReferenceStudy default_study() {
   ReferenceStudy study;
-  study.geometry.benchmark = meshes::Benchmark::B2;
-  study.geometry.contact_polar_angle_rad = 0.0;
   study.geometry.size_exponent = 0.75;
-  study.punch.direction = Eigen::Vector3d(0.0, 0.0, -1.0);
-  study.punch.contact = geometry::ContactCondition::frictionless;
-  study.solver.formulation = fem::Formulation::displacement;
-  study.solver.solver = fem::LinearSolver::cg_amg_trilinos;
   return study;
 }
 

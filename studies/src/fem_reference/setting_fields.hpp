@@ -9,6 +9,8 @@
 // their units ("2 mm") and written back in SI, so a resolved config reads back to the same values.
 // It lives with the config reader in the folder the FEM cache key hashes: it reads FEM studies too.
 
+#include "touchstone/geometry/contact_condition.hpp"
+#include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 
 #include <nlohmann/json.hpp>
@@ -66,6 +68,12 @@ E value_of(const std::vector<Named<E>>& table, const std::string& name) {
     if (name == entry.name) return entry.value;
   throw std::invalid_argument("unknown name '" + name + "'");
 }
+
+/// The spellings of the enums several study files share.
+inline const std::vector<Named<meshes::OrganShape>> organ_shapes{{"stomach", meshes::OrganShape::stomach},
+                                                                 {"hemisphere", meshes::OrganShape::hemisphere}};
+inline const std::vector<Named<geometry::ContactCondition>> contact_conditions{
+    {"frictionless", geometry::ContactCondition::frictionless}, {"bonded", geometry::ContactCondition::bonded}};
 
 /// The naming part of a field; the field makers below add how it is read and written.
 struct FieldNames {
