@@ -71,6 +71,7 @@ std::vector<RecordedSample> read_recording_csv(const std::string& path) {
     std::istringstream fields(line);
     std::string field;
     double values[12];
+    std::string texts[12];
     int count = 0;
     while (count < 12 && std::getline(fields, field, ',')) {
       char* end = nullptr;
@@ -81,6 +82,7 @@ std::vector<RecordedSample> read_recording_csv(const std::string& path) {
       if (!std::isfinite(values[count]))
         throw std::runtime_error("recording " + path + ": line " + std::to_string(number) + ": field " +
                                  std::to_string(count + 1) + " is not finite");
+      texts[count] = field;
       ++count;
     }
     if (count != 12 || std::getline(fields, field, ','))
@@ -92,7 +94,11 @@ std::vector<RecordedSample> read_recording_csv(const std::string& path) {
     if (std::abs(s.orientation.norm() - 1) > 1e-6)
       throw std::runtime_error("recording " + path + ": line " + std::to_string(number) +
                                ": the orientation is not a unit quaternion");
-    s.connected = values[8] != 0;
+    // A flag, not a quantity: 0.5 or 2 means a corrupted or hand-edited file, not "connected".
+    if (values[8] != 0 && values[8] != 1)
+      throw std::runtime_error("recording " + path + ": line " + std::to_string(number) + ": connected = " + texts[8] +
+                               " must be 0 or 1");
+    s.connected = values[8] == 1;
     s.force_N = {values[9], values[10], values[11]};
     if (!samples.empty() && !(s.time_s > samples.back().time_s))
       throw std::runtime_error("recording " + path + ": line " + std::to_string(number) + ": time " +
