@@ -1,5 +1,7 @@
 #include "touchstone/realtime/graphics/interactive_window.hpp"
 
+#include "vtk_error_collector.hpp"
+
 // Eigen before VTK: with clang, vtkXRenderWindowInteractor.h brings in X11's `Success` macro,
 // which breaks Eigen's decompositions (ComputationInfo::Success) included after it.
 #include <Eigen/Geometry>
@@ -41,17 +43,6 @@
 
 namespace touchstone::realtime::graphics {
 namespace {
-
-/// Collects what a VTK object reports through vtkErrorMacro, instead of VTK's output window,
-/// so that exceptions can quote it.
-class ErrorCollector final : public vtkCommand {
- public:
-  static ErrorCollector* New() { return new ErrorCollector; }
-  void Execute(vtkObject*, unsigned long, void* call_data) override {
-    if (call_data != nullptr) message += static_cast<const char*>(call_data);
-  }
-  std::string message;
-};
 
 /// A rotation whose column `column` is the unit vector `direction` (the other two complete a
 /// right-handed orthonormal frame).

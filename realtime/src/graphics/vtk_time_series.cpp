@@ -1,5 +1,7 @@
 #include "touchstone/realtime/graphics/vtk_time_series.hpp"
 
+#include "vtk_error_collector.hpp"
+
 #include <vtkCellArray.h>
 #include <vtkCommand.h>
 #include <vtkDoubleArray.h>
@@ -31,17 +33,6 @@ namespace touchstone::realtime::graphics {
 namespace {
 
 constexpr double pi = 3.14159265358979323846;
-
-/// Collects what a VTK object reports through vtkErrorMacro, instead of VTK's output window,
-/// so that exceptions can quote it.
-class ErrorCollector final : public vtkCommand {
- public:
-  static ErrorCollector* New() { return new ErrorCollector; }
-  void Execute(vtkObject*, unsigned long, void* call_data) override {
-    if (call_data != nullptr) message += static_cast<const char*>(call_data);
-  }
-  std::string message;
-};
 
 /// Shortest decimal that reads back as the same double.
 std::string format_double(double value) {
