@@ -96,45 +96,74 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   if (!parent.empty()) {
     std::error_code error;
     std::filesystem::create_directories(parent, error);
     if (error) {
-      throw std::runtime_error("cannot write '" + path + "': cannot create folder '" +
-                               parent.string() + "' (" + error.message() + ")");
+      throw std::runtime_error("cannot write '" + path_ + "': cannot create folder '" + parent.string() + "' (" +
+                               error.message() + ")");
     }
   }
-
   // The pid keeps concurrent writers (e.g. parallel study runs) off each other's temporary.
-  const std::string temporary = path + ".tmp." + std::to_string(getpid());
-  const auto fail = [&](const std::string& what, int error_number) {
-    ::unlink(temporary.c_str());
-    throw std::runtime_error("cannot write '" + path + "': " + what + " (" +
-                             error_text(error_number) + ")");
-  };
-
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
+  temporary_ = path_ + ".tmp." + std::to_string(getpid());
+  fd_ = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
     const int error_number = errno;
-    throw std::runtime_error("cannot write '" + path + "': cannot create '" + temporary + "' (" +
+    throw std::runtime_error("cannot write '" + path_ + "': cannot create '" + temporary_ + "' (" +
                              error_text(error_number) + ")");
   }
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) {
+    ::close(fd_);
+    ::unlink(temporary_.c_str());
+  }
+}
+
+void AtomicFileWriter::fail(const std::string& what, int error_number) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  ::unlink(temporary_.c_str());
+  throw std::runtime_error("cannot write '" + path_ + "': " + what + " (" + error_text(error_number) + ")");
+}
+
+void AtomicFileWriter::append(const char* data, std::size_t size) {
+  if (fd_ < 0) throw std::runtime_error("cannot write '" + path_ + "': the file is already committed or failed");
   std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+  while (written < size) {
+    const ssize_t n = ::write(fd_, data + written, size - written);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const int error_number = errno;
-      ::close(fd);
-      fail("write failed", error_number);
+      fail("write failed", errno);
     }
     written += static_cast<std::size_t>(n);
   }
+}
+
+void AtomicFileWriter::commit() {
+  if (fd_ < 0) throw std::runtime_error("cannot write '" + path_ + "': the file is already committed or failed");
   // close() is where some file systems (NFS) report a failed write-back.
-  if (::close(fd) != 0) fail("close failed", errno);
-  if (::rename(temporary.c_str(), path.c_str()) != 0) fail("rename failed", errno);
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) {
+    const int error_number = errno;
+    ::unlink(temporary_.c_str());
+    throw std::runtime_error("cannot write '" + path_ + "': close failed (" + error_text(error_number) + ")");
+  }
+  if (::rename(temporary_.c_str(), path_.c_str()) != 0) {
+    const int error_number = errno;
+    ::unlink(temporary_.c_str());
+    throw std::runtime_error("cannot write '" + path_ + "': rename failed (" + error_text(error_number) + ")");
+  }
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  AtomicFileWriter file(path);
+  file.append(text);
+  file.commit();
 }
 
 std::string read_file(const std::string& path) {

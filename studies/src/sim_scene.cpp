@@ -3,7 +3,7 @@
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/haptics/device_recorder.hpp"
 #include "touchstone/realtime/haptics/replay_device.hpp"
-#include "touchstone/realtime/haptics/scripted_device.hpp"
+#include "touchstone/realtime/haptics/palpation_device.hpp"
 #include "touchstone/studies/collision_study.hpp"
 #include "touchstone/studies/mfs_study.hpp"
 #include "touchstone/studies/output_files.hpp"
@@ -243,16 +243,17 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
 
   // The device.
   std::unique_ptr<haptics::HapticDevice> device;
-  haptics::PalpationTrajectory palpation;
+  int palpations = 0;
   switch (scene.device) {
     case DeviceKind::none: break;
     case DeviceKind::scripted: {
       haptics::PalpationSettings p = scene.palpation;
       if (s.duration_s > 0) p.duration_s = s.duration_s;
       p.sample_rate_hz = s.rates.haptic_hz;
-      palpation = haptics::make_palpation_trajectory(organ, p);
-      device = std::make_unique<haptics::ScriptedDevice>(palpation.tip, palpation.tool_axis, palpation.sample_period_s,
-                                                         scene.device_max_force_N);
+      // Poses computed as they are read: the memory of a run does not grow with its duration.
+      haptics::PalpationScript script = haptics::make_palpation_script(organ, p);
+      palpations = script.palpations;
+      device = std::make_unique<haptics::PalpationDevice>(std::move(script), scene.device_max_force_N);
       break;
     }
     case DeviceKind::replay:
@@ -328,6 +329,27 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
 #endif
 
   rt::Simulation simulation(organ, s, active, sinks);
+  // forces.csv streams during the run (a line per haptic tick, about 200 bytes): an hour's
+  // history never sits in memory. A failed run leaves no half file.
+  std::unique_ptr<AtomicFileWriter> forces_csv;
+  long long forces_written = 0;
+  if (s.record_force_history) {
+    forces_csv = std::make_unique<AtomicFileWriter>((fs::path(out) / "forces.csv").string());
+    forces_csv->append("time_s,tip_x_m,tip_y_m,tip_z_m,force_x_N,force_y_N,force_z_N,exact_x_N,exact_y_N,exact_z_N,in_contact\n");
+    simulation.stream_force_history([&](const std::vector<rt::ForceSample>& chunk) {
+      std::string text;
+      text.reserve(chunk.size() * 200);
+      char line[400];
+      for (const auto& f : chunk) {
+        const int n = std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", f.time_s,
+                                    f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), f.force_on_hand_N.x(), f.force_on_hand_N.y(),
+                                    f.force_on_hand_N.z(), -f.exact_N.x(), -f.exact_N.y(), -f.exact_N.z(), f.in_contact ? 1 : 0);
+        text.append(line, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof line) - 1)));
+      }
+      forces_csv->append(text);
+      forces_written += static_cast<long long>(chunk.size());
+    });
+  }
   if (options.print)
     std::printf("sim %s: organ %zu triangles, device %s, %s clock, %s\n", scene.name.c_str(), organ.triangles().size(),
                 to_string(scene.device).c_str(), options.virtual_clock ? "virtual" : "real",
@@ -344,7 +366,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   // The scene as run (command-line overrides applied), one key per setting.
   document["params"] = sim_scene_params(scene);
   document["config_resolved"] = "config.resolved.toml";
-  if (scene.device == DeviceKind::scripted) document["palpations"] = palpation.palpations;
+  if (scene.device == DeviceKind::scripted) document["palpations"] = palpations;
 #ifdef TOUCHSTONE_HAVE_VTK
   if (series) {
     document["time_series"] = {{"organ_pvd", series->organ_pvd_path()}, {"tool_pvd", series->tool_pvd_path()},
@@ -359,18 +381,10 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
     document["recording"] = {{"file", options.record_path}, {"samples", recorder->samples().size()},
                              {"dropped", recorder->dropped()}};
   }
-  if (!summary.force_history.empty()) {
-    std::ostringstream csv;
-    csv << "time_s,tip_x_m,tip_y_m,tip_z_m,force_x_N,force_y_N,force_z_N,exact_x_N,exact_y_N,exact_z_N,in_contact\n";
-    char line[400];
-    for (const auto& f : summary.force_history) {
-      std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", f.time_s,
-                    f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), f.force_on_hand_N.x(), f.force_on_hand_N.y(),
-                    f.force_on_hand_N.z(), -f.exact_N.x(), -f.exact_N.y(), -f.exact_N.z(), f.in_contact ? 1 : 0);
-      csv << line;
-    }
-    write_file_atomically((fs::path(out) / "forces.csv").string(), csv.str());
-    document["force_history"] = (fs::path(out) / "forces.csv").string();
+  if (forces_csv) {
+    forces_csv->commit();
+    document["force_history"] = forces_csv->path();
+    document["force_history_ticks"] = forces_written;
   }
   write_file_atomically((fs::path(out) / "config.resolved.toml").string(), resolved_scene_toml(scene));
   write_file_atomically((fs::path(out) / "summary.json").string(), document.dump(2) + "\n");

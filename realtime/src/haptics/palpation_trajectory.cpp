@@ -31,32 +31,37 @@ Eigen::Vector3d tangent_of(const Eigen::Vector3d& n) {
   return t.normalized();
 }
 
+/// Appends moves to a script; last() is the smooth position of the last sample so far, exactly
+/// as sample_palpation_script() will compute it.
 class Builder {
  public:
-  Builder(const PalpationSettings& settings, PalpationTrajectory& out) : settings_(settings), out_(out) {}
+  Builder(const PalpationSettings& settings, PalpationScript& out) : settings_(settings), out_(out) {}
 
-  // By value: callers pass the trajectory's own last sample, which push_back may move.
-  void rest(Eigen::Vector3d at, double seconds, int site, Eigen::Vector3d axis) {
+  void rest(const Eigen::Vector3d& at, double seconds, int site, const Eigen::Vector3d& axis) {
     move(at, at, seconds, PalpationPhase::rest, site, axis);
   }
   /// A minimum-jerk segment from → to lasting `seconds`.
-  void move(Eigen::Vector3d from, Eigen::Vector3d to, double seconds, PalpationPhase phase, int site,
-            Eigen::Vector3d axis) {
-    const int samples = std::max(1, static_cast<int>(std::lround(seconds * settings_.sample_rate_hz)));
-    PalpationSegment segment{phase, site, static_cast<int>(out_.smooth.size()), 0};
-    for (int k = 1; k <= samples; ++k) {
-      const double s = hand_motion::minimum_jerk(static_cast<double>(k) / samples);
-      out_.smooth.push_back(from + s * (to - from));
-      out_.tool_axis.push_back(axis);
-    }
-    segment.end = static_cast<int>(out_.smooth.size());
-    out_.segments.push_back(segment);
+  void move(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double seconds, PalpationPhase phase, int site,
+            const Eigen::Vector3d& axis) {
+    PalpationMove m;
+    m.from_m = from;
+    m.to_m = to;
+    m.tool_axis = axis;
+    m.begin = out_.sample_count;
+    m.samples = std::max(1, static_cast<int>(std::lround(seconds * settings_.sample_rate_hz)));
+    out_.moves.push_back(m);
+    out_.sample_count += m.samples;
+    out_.segments.push_back({phase, site, m.begin, out_.sample_count});
+    last_ = palpation_sample(m, out_.sample_count - 1);
   }
-  double seconds() const { return static_cast<double>(out_.smooth.size()) / settings_.sample_rate_hz; }
+  const Eigen::Vector3d& last() const { return last_; }
+  const Eigen::Vector3d& last_axis() const { return out_.moves.back().tool_axis; }
+  double seconds() const { return static_cast<double>(out_.sample_count) / settings_.sample_rate_hz; }
 
  private:
   const PalpationSettings& settings_;
-  PalpationTrajectory& out_;
+  PalpationScript& out_;
+  Eigen::Vector3d last_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace
@@ -96,10 +101,14 @@ void PalpationSettings::validate() const {
   tremor.validate();
 }
 
-PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& organ,
-                                              const PalpationSettings& settings) {
+Eigen::Vector3d palpation_sample(const PalpationMove& move, long long k) noexcept {
+  const double s = hand_motion::minimum_jerk(static_cast<double>(k - move.begin + 1) / move.samples);
+  return move.from_m + s * (move.to_m - move.from_m);
+}
+
+PalpationScript make_palpation_script(const geometry::TriangleSurface& organ, const PalpationSettings& settings) {
   settings.validate();
-  PalpationTrajectory out;
+  PalpationScript out;
   out.sample_period_s = 1.0 / settings.sample_rate_hz;
   hand_motion::RandomStream random(settings.seed);
 
@@ -142,7 +151,7 @@ PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& o
       // Lift above the previous site, move over, descend: the straight path between the lift
       // points is checked against the organ below.
       const int previous = (site + site_count - 1) % site_count;
-      const Eigen::Vector3d from = out.smooth.back();
+      const Eigen::Vector3d from = builder.last();
       const Eigen::Vector3d lift_from = out.site_points[previous] + (settings.hover_m + settings.lift_m) * out.site_normals[previous];
       const Eigen::Vector3d lift_to = p + (settings.hover_m + settings.lift_m) * n;
       for (int k = 0; k <= 20; ++k) {
@@ -171,7 +180,7 @@ PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& o
     }
     builder.move(last, last + (settings.press_depth_m + settings.hover_m) * n, settings.release_s,
                  PalpationPhase::release, site, n);
-    builder.rest(out.smooth.back(), settings.rest_s, site, n);
+    builder.rest(builder.last(), settings.rest_s, site, n);
     ++out.palpations;
     site = (site + 1) % site_count;
   }
@@ -181,18 +190,41 @@ PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& o
                              " s)");
   const double remaining = settings.duration_s - builder.seconds();
   if (remaining * settings.sample_rate_hz >= 1)
-    builder.rest(out.smooth.back(), remaining, site == 0 ? site_count - 1 : site - 1, out.tool_axis.back());
+    builder.rest(builder.last(), remaining, site == 0 ? site_count - 1 : site - 1, builder.last_axis());
 
   // Tremor on top of the hand motion.
-  hand_motion::TremorSettings tremor = settings.tremor;
-  tremor.sample_rate_hz = settings.sample_rate_hz;
-  tremor.seed = settings.seed * 0x9e3779b97f4a7c15ULL + 17;
+  out.tremor = settings.tremor;
+  out.tremor.sample_rate_hz = settings.sample_rate_hz;
+  out.tremor.seed = settings.seed * 0x9e3779b97f4a7c15ULL + 17;
+  return out;
+}
+
+PalpationTrajectory sample_palpation_script(const PalpationScript& script) {
+  PalpationTrajectory out;
+  out.site_points = script.site_points;
+  out.site_normals = script.site_normals;
+  out.segments = script.segments;
+  out.sample_period_s = script.sample_period_s;
+  out.palpations = script.palpations;
+  const auto count = static_cast<std::size_t>(script.sample_count);
+  out.smooth.reserve(count);
+  out.tool_axis.reserve(count);
+  for (const PalpationMove& move : script.moves)
+    for (long long k = move.begin; k < move.begin + move.samples; ++k) {
+      out.smooth.push_back(palpation_sample(move, k));
+      out.tool_axis.push_back(move.tool_axis);
+    }
   out.tip = out.smooth;
-  if (tremor.rms_per_axis_m > 0) {
-    hand_motion::TremorGenerator generator(tremor);
+  if (script.tremor.rms_per_axis_m > 0) {
+    hand_motion::TremorGenerator generator(script.tremor);
     for (auto& x : out.tip) x += generator.next();
   }
   return out;
+}
+
+PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& organ,
+                                              const PalpationSettings& settings) {
+  return sample_palpation_script(make_palpation_script(organ, settings));
 }
 
 }  // namespace touchstone::realtime::haptics

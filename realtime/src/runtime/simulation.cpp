@@ -102,6 +102,8 @@ struct Simulation::Impl : RuntimeState {
   using RuntimeState::RuntimeState;
 
   Simulation::TickProbe probe;
+  Simulation::ForceHistorySink history_sink;
+  std::size_t history_chunk_samples = std::size_t(1) << 16;
 
   bool probed_tick(HapticLoop& haptic, double time_s) noexcept {
     if (probe.before) probe.before(probe.context);
@@ -192,6 +194,16 @@ struct Simulation::Impl : RuntimeState {
     std::vector<ForceSample> history;
   };
 
+  /// The force history's last chunk to the sink, or all of it into the summary.
+  void hand_over_history(std::vector<ForceSample>& history, RunSummary& summary) {
+    if (!history_sink) {
+      summary.force_history = std::move(history);
+      return;
+    }
+    if (!history.empty()) history_sink(history);
+    history.clear();
+  }
+
   /// Resets the shared state, starts the device and makes the loops (`synchronous`: builds
   /// complete within the model step, for the virtual clock).
   void prepare(bool synchronous, Loops& loops) {
@@ -207,7 +219,9 @@ struct Simulation::Impl : RuntimeState {
         // Filled then emptied: the pages are touched now, not by the first tick to reach each
         // one (a page fault costs microseconds).
         const double ticks = seconds * settings.rates.haptic_hz + 16;
-        loops.history.resize(static_cast<std::size_t>(std::min(ticks, double(max_force_history_samples))));
+        std::size_t capacity = static_cast<std::size_t>(std::min(ticks, double(max_force_history_samples)));
+        if (history_sink && synchronous) capacity = std::min(capacity, history_chunk_samples);
+        loops.history.resize(capacity);
         loops.history.clear();
         loops.haptic->history = &loops.history;
       }
@@ -228,6 +242,12 @@ Simulation::Simulation(const geometry::TriangleSurface& organ, const SceneSettin
 Simulation::~Simulation() { delete impl_; }
 
 void Simulation::set_haptic_tick_probe(const TickProbe& probe) noexcept { impl_->probe = probe; }
+
+void Simulation::stream_force_history(ForceHistorySink sink, std::size_t chunk_samples) {
+  if (chunk_samples < 1) throw std::invalid_argument("Simulation::stream_force_history: chunk_samples must be >= 1");
+  impl_->history_sink = std::move(sink);
+  impl_->history_chunk_samples = chunk_samples;
+}
 
 RunSummary Simulation::run_virtual(const std::atomic<bool>* stop) {
   Impl& sim = *impl_;
@@ -268,6 +288,10 @@ RunSummary Simulation::run_virtual(const std::atomic<bool>* stop) {
       const auto start = std::chrono::steady_clock::now();
       const bool go_on = sim.probed_tick(*haptic, time_s);
       haptic_work.add(seconds_since(start));
+      if (sim.history_sink && haptic->history && history.size() == history.capacity()) {
+        sim.history_sink(history);
+        history.clear();  // keeps the capacity: no allocation
+      }
       if (!go_on) break;
       if (k % model_every == 0) {
         const auto model_start = std::chrono::steady_clock::now();
@@ -289,7 +313,7 @@ RunSummary Simulation::run_virtual(const std::atomic<bool>* stop) {
   Impl::fill_loop(summary.model, "model", model_every * period, zero, model_work, 1.0 / rates.model_hz, 0);
   Impl::fill_loop(summary.graphics, "graphics", 1.0 / rates.graphics_hz, zero, graphics_work, 1.0 / rates.graphics_hz, 0);
   summary.haptic_thread.note = "virtual clock: no real-time thread";
-  summary.force_history = std::move(history);
+  sim.hand_over_history(history, summary);
   return summary;
 }
 
@@ -424,7 +448,7 @@ RunSummary Simulation::run_threaded(const std::atomic<bool>* stop) {
   Impl::fill_loop(summary.graphics, "graphics", 1.0 / rates.graphics_hz, *graphics_lateness, *graphics_work,
                   1.0 / rates.graphics_hz, graphics_skipped);
   summary.haptic_thread = haptic_report;
-  summary.force_history = std::move(history);
+  sim.hand_over_history(history, summary);
   return summary;
 }
 

@@ -1,6 +1,7 @@
-// The scripted hand (realtime/haptics/palpation_trajectory, scripted_device) and the recorder
+// The scripted hand (realtime/haptics/palpation_trajectory, scripted_device, palpation_device) and the recorder
 // and replay devices (device_recorder, replay_device).
 #include "touchstone/realtime/haptics/device_recorder.hpp"
+#include "touchstone/realtime/haptics/palpation_device.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
 #include "touchstone/realtime/haptics/replay_device.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
@@ -11,7 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 
 namespace touchstone::realtime::haptics {
 namespace {
@@ -49,7 +52,7 @@ TEST(PalpationTrajectory, PressesToTheDepthAtEverySiteAndEndsOutside) {
       ++holds;
     }
     if (segment.phase == PalpationPhase::transfer || segment.phase == PalpationPhase::rest) {
-      for (int k = segment.begin; k < segment.end; k += 50) {
+      for (long long k = segment.begin; k < segment.end; k += 50) {
         EXPECT_GT(sphere().signed_distance(path.smooth[k]), 0.0) << "sample " << k << " is inside while free";
       }
     }
@@ -104,6 +107,48 @@ TEST(ScriptedDevice, PlaysSamplesAtTheirTimesAndFinishes) {
   testing::expect_invalid_argument([] { ScriptedDevice d({{0, 0, std::nan("")}}, {}, 1e-3); }, {"tip position 0"});
 }
 
+TEST(PalpationDevice, PlaysTheSampledScriptBitForBitInConstantMemory) {
+  PalpationSettings p = settings();
+  p.duration_s = 30;
+  const PalpationScript script = make_palpation_script(sphere(), p);
+  const PalpationTrajectory path = sample_palpation_script(script);
+  ASSERT_EQ(static_cast<long long>(path.tip.size()), script.sample_count);
+  ScriptedDevice scripted(path.tip, path.tool_axis, path.sample_period_s);
+  PalpationDevice device(script);
+  EXPECT_EQ(device.duration_s(), scripted.duration_s());
+  const auto expect_same = [&](double t) {
+    const DeviceSample a = scripted.read(t), b = device.read(t);
+    EXPECT_EQ(a.tip_position_m, b.tip_position_m) << "t = " << t;
+    EXPECT_EQ(a.orientation.coeffs(), b.orientation.coeffs()) << "t = " << t;
+    EXPECT_EQ(a.finished, b.finished) << "t = " << t;
+  };
+  // Every tick in order, as the haptic loop reads, then past the end.
+  for (long long k = 0; k <= script.sample_count + 2; ++k) expect_same(static_cast<double>(k) * path.sample_period_s);
+  // Backwards (the tremor restarts), between samples, and nonsense times.
+  for (const double t : {12.3456, 0.0, 29.9995, 7.0, 7.0, -1.0, std::numeric_limits<double>::quiet_NaN(), 1e300})
+    expect_same(t);
+  // The script grows with the moves (about ten per palpation), not with the samples.
+  EXPECT_LE(script.moves.size(), 12U * static_cast<std::size_t>(script.palpations) + 4U);
+  EXPECT_LT(script.moves.size() * sizeof(PalpationMove), path.tip.size() * sizeof(Eigen::Vector3d) / 100);
+  // Without tremor the pose is the smooth hand.
+  p.tremor.rms_per_axis_m = 0;
+  const PalpationScript calm = make_palpation_script(sphere(), p);
+  PalpationDevice still(calm);
+  EXPECT_EQ(still.read(1.0).tip_position_m, sample_palpation_script(calm).smooth[1000]);
+}
+
+TEST(PalpationDevice, RefusesABrokenScript) {
+  PalpationScript script = make_palpation_script(sphere(), settings());
+  PalpationScript gap = script;
+  gap.moves[1].begin += 1;
+  testing::expect_invalid_argument([&] { PalpationDevice d(gap); }, {"move 1", "does not continue"});
+  PalpationScript nan = script;
+  nan.moves[2].to_m.x() = std::nan("");
+  testing::expect_invalid_argument([&] { PalpationDevice d(nan); }, {"move 2", "non-finite"});
+  testing::expect_invalid_argument([] { PalpationDevice d(PalpationScript{}); }, {"no samples"});
+  testing::expect_invalid_argument([&] { PalpationDevice d(script, 0.0); }, {"max_force_N"});
+}
+
 TEST(Recording, RoundTripsThroughCsvAndReplays) {
   touchstone::testing::TemporaryDirectory directory("recording");
   const PalpationTrajectory path = make_palpation_trajectory(sphere(), settings());
@@ -151,6 +196,8 @@ TEST(Recording, MalformedFilesNameTheFileAndLine) {
   expect_error(write(header + "0,1,2,abc,1,0,0,0,1,0,0,0\n"), "'abc'");
   expect_error(write(header + "0.1,1,2,3,1,0,0,0,1,0,0,0\n0.05,1,2,3,1,0,0,0,1,0,0,0\n"), "does not increase");
   expect_error(write(header + "0,1,2,3,2,0,0,0,1,0,0,0\n"), "unit quaternion");
+  expect_error(write(header + "0,1,2,3,1,0,0,0,0.5,0,0,0\n"), "connected = 0.5 must be 0 or 1");
+  expect_error(write(header + "0,1,2,3,1,0,0,0,-1,0,0,0\n"), "connected = -1 must be 0 or 1");
   expect_error(write(header), "no samples");
   expect_error(directory.path("missing.csv"), "cannot open");
 }

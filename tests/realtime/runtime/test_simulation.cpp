@@ -6,6 +6,7 @@
 #include "support/expect_invalid_argument.hpp"
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/realtime/haptics/palpation_trajectory.hpp"
+#include "touchstone/realtime/haptics/palpation_device.hpp"
 #include "touchstone/realtime/haptics/scripted_device.hpp"
 
 #include <gtest/gtest.h>
@@ -128,6 +129,42 @@ TEST(Simulation, StudyModeIsBitReproducible) {
     ASSERT_EQ(std::memcmp(first[k].force_on_hand_N.data(), second[k].force_on_hand_N.data(), 3 * sizeof(double)), 0)
         << "tick " << k;
   }
+}
+
+TEST(Simulation, StreamedHistoryIsTheKeptHistoryInChunks) {
+  // The same run kept in memory, then streamed in chunks of 1,000 ticks from a PalpationDevice
+  // (poses computed as read): the same ticks, bit for bit, and no history left in the summary.
+  haptics::PalpationSettings settings = palpation(6.0);
+  const haptics::PalpationScript script = haptics::make_palpation_script(sphere_organ(), settings);
+  const SceneSettings scene = fast_scene();
+  auto device = scripted(haptics::sample_palpation_script(script));
+  Simulation kept(sphere_organ(), scene, device.get(), {});
+  const std::vector<ForceSample> whole = kept.run_virtual().force_history;
+  ASSERT_GT(whole.size(), 5000U);
+
+  haptics::PalpationDevice computed(script);
+  Simulation streamed(sphere_organ(), scene, &computed, {});
+  std::vector<ForceSample> chunks;
+  std::size_t largest_chunk = 0, calls = 0;
+  streamed.stream_force_history(
+      [&](const std::vector<ForceSample>& chunk) {
+        largest_chunk = std::max(largest_chunk, chunk.size());
+        ++calls;
+        chunks.insert(chunks.end(), chunk.begin(), chunk.end());
+      },
+      1000);
+  const RunSummary run = streamed.run_virtual();
+  EXPECT_TRUE(run.force_history.empty());
+  EXPECT_EQ(largest_chunk, 1000U);
+  EXPECT_EQ(calls, (whole.size() + 999) / 1000);
+  ASSERT_EQ(chunks.size(), whole.size());
+  for (std::size_t k = 0; k < whole.size(); ++k) {
+    ASSERT_EQ(chunks[k].time_s, whole[k].time_s) << "tick " << k;
+    ASSERT_EQ(chunks[k].tip_m, whole[k].tip_m) << "tick " << k;
+    ASSERT_EQ(std::memcmp(chunks[k].force_on_hand_N.data(), whole[k].force_on_hand_N.data(), 3 * sizeof(double)), 0)
+        << "tick " << k;
+  }
+  EXPECT_THROW(streamed.stream_force_history([](const std::vector<ForceSample>&) {}, 0), std::invalid_argument);
 }
 
 TEST(Simulation, ExtrapolationModeIsComparedWithTheExactForce) {

@@ -46,6 +46,27 @@ double seconds_since(std::chrono::steady_clock::time_point start);
 /// Writes `text` to `path` through a temporary file in the same folder and a rename, creating
 /// the folder; throws std::runtime_error naming the path and the system's reason.
 void write_file_atomically(const std::string& path, const std::string& text);
+
+/// The same for a file written piece by piece (e.g. a history streamed during a run): the
+/// pieces go to the temporary file, commit() renames it to `path`; a writer destroyed without
+/// commit() removes the temporary, so a failed run leaves no half file. Every failure throws
+/// std::runtime_error naming the path and the system's reason.
+class AtomicFileWriter {
+ public:
+  explicit AtomicFileWriter(std::string path);
+  ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  void append(const char* data, std::size_t size);
+  void append(const std::string& text) { append(text.data(), text.size()); }
+  void commit();
+  const std::string& path() const { return path_; }
+
+ private:
+  [[noreturn]] void fail(const std::string& what, int error_number);
+  std::string path_, temporary_;
+  int fd_ = -1;
+};
 /// The whole file; throws std::runtime_error naming the path and the system's reason.
 std::string read_file(const std::string& path);
 /// `path` taken relative to `directory` when it is relative (a config's files are relative to

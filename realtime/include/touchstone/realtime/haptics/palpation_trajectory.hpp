@@ -50,9 +50,33 @@ const char* to_string(PalpationPhase phase);
 struct PalpationSegment {
   PalpationPhase phase = PalpationPhase::rest;
   int site = 0;
-  int begin = 0, end = 0;  ///< [begin, end)
+  long long begin = 0, end = 0;  ///< [begin, end)
 };
 
+/// One minimum-jerk move of the hand (a rest is a move with from = to): samples
+/// begin … begin + samples − 1, sample begin + j − 1 at from + s(j / samples)(to − from), s the
+/// minimum-jerk profile.
+struct PalpationMove {
+  Eigen::Vector3d from_m = Eigen::Vector3d::Zero(), to_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tool_axis = Eigen::Vector3d::UnitZ();  ///< unit, from the tip along the shaft
+  long long begin = 0;
+  int samples = 1;
+};
+
+/// The palpation as moves plus the tremor that goes on top: what the hand does, in memory that
+/// grows with the number of moves (about ten per palpation), not with duration × sample rate.
+/// PalpationDevice plays it sample by sample; sample_palpation_script() writes every sample.
+struct PalpationScript {
+  std::vector<PalpationMove> moves;
+  std::vector<PalpationSegment> segments;
+  std::vector<Eigen::Vector3d> site_points, site_normals;  ///< on the surface; outward
+  hand_motion::TremorSettings tremor;  ///< resolved: the sample rate and seed the trajectory uses
+  double sample_period_s = 1e-3;
+  long long sample_count = 0;
+  int palpations = 0;
+};
+
+/// Every sample of a script, for tests and short runs.
 struct PalpationTrajectory {
   std::vector<Eigen::Vector3d> smooth;     ///< hand motion [m]
   std::vector<Eigen::Vector3d> tip;        ///< smooth + tremor: what the device reports [m]
@@ -63,9 +87,18 @@ struct PalpationTrajectory {
   int palpations = 0;
 };
 
-/// Builds the trajectory. Throws std::invalid_argument on invalid settings, and
+/// Plans the palpation. Throws std::invalid_argument on invalid settings, and
 /// std::runtime_error naming the sites when a transfer would pass through the organ (raise
 /// lift_m) or when not even one palpation fits in duration_s.
+PalpationScript make_palpation_script(const geometry::TriangleSurface& organ, const PalpationSettings& settings);
+
+/// The smooth hand position of sample k (0 ≤ k < sample_count) of move `move`.
+Eigen::Vector3d palpation_sample(const PalpationMove& move, long long k) noexcept;
+
+/// Every sample of the script (smooth, then tip = smooth + the tremor sequence).
+PalpationTrajectory sample_palpation_script(const PalpationScript& script);
+
+/// make_palpation_script, then every sample.
 PalpationTrajectory make_palpation_trajectory(const geometry::TriangleSurface& organ,
                                               const PalpationSettings& settings);
 

@@ -39,6 +39,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -214,6 +215,14 @@ class Simulation {
   RunSummary run_threaded(const std::atomic<bool>* stop = nullptr);
   /// Runs lock-step on a virtual clock (study mode): deterministic, as fast as the work allows.
   RunSummary run_virtual(const std::atomic<bool>* stop = nullptr);
+
+  /// Hands the force history (SceneSettings::record_force_history) to `sink` in time order, in
+  /// chunks of at most `chunk_samples` ticks, instead of RunSummary::force_history: on the virtual
+  /// clock a chunk goes out whenever it fills, so a run's memory does not grow with its
+  /// duration and no tick is dropped; a threaded run (whose haptic thread must not do I/O)
+  /// keeps its bounded history and hands it over at the end. Call before running.
+  using ForceHistorySink = std::function<void(const std::vector<ForceSample>&)>;
+  void stream_force_history(ForceHistorySink sink, std::size_t chunk_samples = std::size_t(1) << 16);
 
   /// Instrumentation for tests: called right before and after every haptic tick, in the
   /// haptic thread (e.g. to count heap allocations inside the tick). Null: none.
