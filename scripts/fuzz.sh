@@ -30,11 +30,11 @@ fi
 
 # Any sanitizer report ends the run with a crash input saved. Leaks are checked after every
 # input (libFuzzer's -detect_leaks, on by default with ASan), but for the VTK ones listed in
-# tests/fuzz/lsan_suppressions.txt (why there). An allocation beyond what ASan supports (2^40
+# tests/lsan_suppressions.txt (why there). An allocation beyond what ASan supports (2^40
 # bytes) fails as in a release build, where the readers turn it into an error naming the file;
 # one beyond -rss_limit_mb is still a finding.
 asan_options="detect_leaks=1:allocator_may_return_null=1"
-export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan_suppressions.txt:print_suppressions=0"
+export LSAN_OPTIONS="suppressions=$PWD/tests/lsan_suppressions.txt:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 
 findings_total=0
