@@ -201,10 +201,15 @@ OrganAtlas read_organ_atlas(const std::string& path) {
   json document;
   try {
     document = json::parse(in);
-  } catch (const json::parse_error& error) {
+  } catch (const json::exception& error) {
+    // Every parser error, not only parse_error: a number beyond double's range is out_of_range.
     throw std::runtime_error(path + ": not valid JSON: " + error.what());
   }
-  return AtlasReader(path).atlas(document);
+  try {
+    return AtlasReader(path).atlas(document);
+  } catch (const json::exception& error) {
+    throw std::runtime_error(path + ": " + error.what());
+  }
 }
 
 void write_organ_atlas(const OrganAtlas& atlas, const std::string& path) {

@@ -2,6 +2,8 @@
 // file and the key, the lookup's statuses, the E scaling and the frame rotation. No FEM.
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
+#include "support/temporary_directory.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -168,6 +170,19 @@ TEST(OrganAtlasFile, EveryErrorNamesTheFileAndTheKey) {
     FAIL();
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find("absent.json"), std::string::npos);
+  }
+}
+
+TEST(OrganAtlasFile, ANumberBeyondDoubleIsAnErrorNamingTheFile) {
+  // Found by fuzz_organ_atlas: the JSON parser reports a number overflow as out_of_range, not
+  // parse_error, and it escaped the reader as a raw library exception.
+  touchstone::testing::TemporaryDirectory directory("atlas_overflow");
+  const std::string path = directory.file("overflow.json", "{\"format\": \"touchstone.organ_atlas\", \"version\": 1e999}");
+  try {
+    read_organ_atlas(path);
+    ADD_FAILURE() << "accepted a number beyond double";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find(path), std::string::npos) << error.what();
   }
 }
 
