@@ -206,6 +206,7 @@ class LegacyCellLists {
 
   void check() {
     for (std::string keyword = word(); !keyword.empty(); keyword = word()) {
+      keyword = as_vtk_reads(keyword);
       if (keyword == "POINT_DATA" || keyword == "CELL_DATA") return;
       if (keyword == "POINTS" && binary_) {
         const unsigned long long count = counted(keyword, word());
@@ -213,6 +214,22 @@ class LegacyCellLists {
         const std::size_t width = type_width(type);
         if (width == 0) fail(path_, "malformed legacy VTK file: POINTS of an unknown data type '" + type + "'");
         skip_binary(keyword, static_cast<double>(count) * 3 * static_cast<double>(width));
+        continue;
+      }
+      if (keyword == "POINTS") {
+        // ASCII coordinates cut short or holding a word send VTK reading on from a failed
+        // stream, as cell lists do.
+        const unsigned long long count = counted(keyword, word());
+        const std::string type = word();
+        if (type_width(type) == 0) fail(path_, "malformed legacy VTK file: POINTS of an unknown data type '" + type + "'");
+        for (unsigned long long k = 0; k < 3 * count; ++k) {
+          const std::string text = word();
+          double value = 0;
+          const auto [stop, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+          if (text.empty() || stop != text.data() + text.size() || (error != std::errc() && error != std::errc::result_out_of_range))
+            fail(path_, "malformed legacy VTK file: POINTS declares " + std::to_string(count) + " points, coordinate " +
+                            std::to_string(k + 1) + " is " + (text.empty() ? std::string("missing") : "'" + text + "'"));
+        }
         continue;
       }
       if (keyword != "VERTICES" && keyword != "LINES" && keyword != "POLYGONS" && keyword != "TRIANGLE_STRIPS") continue;
@@ -252,6 +269,21 @@ class LegacyCellLists {
   }
 
  private:
+  /// The keyword VTK's reader takes a word for: it lower-cases the word and compares only the
+  /// keyword's length of it ("POLYGONSxyz" is POLYGONS), so the check must too.
+  static std::string as_vtk_reads(const std::string& word) {
+    std::string lower = word;
+    for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (const char* keyword : {"point_data", "cell_data", "points", "vertices", "lines", "polygons", "triangle_strips"}) {
+      if (lower.rfind(keyword, 0) == 0) {
+        std::string upper = keyword;
+        for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+        return upper;
+      }
+    }
+    return word;
+  }
+
   /// The next whitespace-separated word ("" at the end of the file).
   std::string word() {
     while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
@@ -371,7 +403,11 @@ void check_declared_sizes(const std::string& path, SurfaceFormat format, std::ui
     if (dot == std::string::npos || !digits(version.substr(0, dot)) || !digits(version.substr(dot + 1))) {
       fail(path, "not a legacy VTK file: the first line must be '# vtk DataFile Version <major>.<minor>'");
     }
-    const bool binary = head.find("\nBINARY") != std::string::npos;
+    // The file type is the third line: "BINARY" anywhere else (a second header pasted into the
+    // file) must not switch how the lists are read.
+    std::size_t third = head.find('\n');
+    third = third == std::string::npos ? third : head.find('\n', third + 1);
+    const bool binary = third != std::string::npos && head.compare(third + 1, 6, "BINARY") == 0;
     LegacyCellLists(path, binary).check();
     if (number_after("\nPOINTS ", 0, points) == std::string::npos) return;  // VTK will say what is wrong
     bytes_per_point = binary ? 12 : 6;

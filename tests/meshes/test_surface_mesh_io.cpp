@@ -494,6 +494,35 @@ TEST(SurfaceMeshIo, LegacyCellListsCutShortFailClearly) {
   expect_invalid_argument([&] { read_surface_mesh(short_v5); }, {short_v5, "CONNECTIVITY of POLYGONS declares 3 values", "ends after 2"});
 }
 
+// Found by CI's fuzz smoke run: ASCII coordinates cut short (the next keyword where a coordinate
+// should be) made VTK 9.1 read on from a failed stream and dereference null.
+TEST(SurfaceMeshIo, LegacyPointsCutShortOrHoldingAWordFailClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const std::string cut = directory.file("points_cut.vtk",
+                                         "# vtk DataFile Version 4.2\noctahedron\nASCII\nDATASET POLYDATA\nPOINTS 6 double\n"
+                                         "1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0\nPOLYGONS 8 32\n3 0 2 4\n");
+  expect_invalid_argument([&] { read_surface_mesh(cut); }, {cut, "POINTS declares 6 points", "coordinate 15 is 'POLYGONS'"});
+  const std::string ended = directory.file("points_end.vtk",
+                                           "# vtk DataFile Version 4.2\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0\n");
+  expect_invalid_argument([&] { read_surface_mesh(ended); }, {ended, "coordinate 6 is missing"});
+  const std::string word = directory.file("points_word.vtk",
+                                          "# vtk DataFile Version 4.2\nt\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 x1 0\n");
+  expect_invalid_argument([&] { read_surface_mesh(word); }, {word, "coordinate 2 is 'x1'"});
+  // The fuzzer's file: the same, with a second header pasted in whose "BINARY" line once made the
+  // check read this ASCII file as binary.
+  const std::string pasted = directory.file("points_pasted.vtk",
+                                            "# vtk DataFile Version 4.2\noctahedron\nASCII\nDATASET POLYDATA\nPOINTS 6 double\n"
+                                            "1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0\nPOLYGONS 8 32\n3 0 2 4\n3 2 1 4"
+                                            "# vtk DataFile Version 3.0\noctahedron\nBINARY\nDATASET POLYDATA\n");
+  expect_invalid_argument([&] { read_surface_mesh(pasted); }, {pasted, "coordinate 15 is 'POLYGONS'"});
+  // VTK takes a word that starts with a keyword for the keyword (lower-cased, prefix only).
+  const std::string glued = directory.file("glued.vtk",
+                                           "# vtk DataFile Version 4.2\noctahedron\nASCII\nDATASET POLYDATA\nPOINTS 6 double\n"
+                                           "1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1\nPOLYGONSSt12length_error 8 32\n"
+                                           "3 0 2 4\n3 0 5\n3 1 2 5\n3 6 1 5\n3 0 3 5\n");
+  expect_invalid_argument([&] { read_surface_mesh(glued); }, {glued, "POLYGONS"});
+}
+
 // Found by fuzzing: a cell that claims more points than its list holds made VTK 9.1 read past
 // the list's buffer (a binary file here: the first triangle's point count became 2^20).
 TEST(SurfaceMeshIo, LegacyCellsClaimingMorePointsThanTheirListFailClearly) {
