@@ -7,20 +7,28 @@
 #
 #   scripts/run_sanitizers.sh            # configure, build (preset asan), run
 #
-# Not yet part of scripts/run_tests.sh (CI): gmsh 4.8 frees memory it did not allocate with
-# malloc inside its LU solve (fullMatrix::luSolve, reached from the frontal surface mesher),
-# which ASan reports and cannot suppress; the tests that mesh a benchmark organ with gmsh
-# meet it. README.md, "Sanitizers", has the last result. Packages come from install_deps.sh.
+# Not part of scripts/run_tests.sh (CI): with its build it takes about 40 minutes on a 2-core
+# machine, which would more than double CI's time. README.md, "Sanitizers", has the last result.
+# Packages come from install_deps.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake --preset asan -DTOUCHSTONE_WARNINGS_AS_ERRORS="${TOUCHSTONE_WARNINGS_AS_ERRORS:-OFF}" >/dev/null
 cmake --build --preset asan --target sanitized_tests -j "$(nproc)"
 export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
-# Leaks inside gmsh and VTK, which the project does not build: tests/lsan_suppressions.txt.
+# Leaks inside gmsh, VTK and OpenIGTLink, which the project does not build:
+# tests/lsan_suppressions.txt.
 export LSAN_OPTIONS="suppressions=$PWD/tests/lsan_suppressions.txt:print_suppressions=0"
+# The on-screen window's tests run with every check but the leak check: each window leaves 240
+# bytes in C allocations (a 128-byte realloc holding two 56-byte callocs) whose frames lie in
+# the OpenGL stack under Xvfb, which has no frame pointers and no symbols, so no suppression can
+# name them, and a full unwind does not finish under software rendering.
+window_tests="^InteractiveWindow\\."
 status=0
 for folder in geometry meshes realtime; do
-  ctest --test-dir "build/asan/tests/${folder}" --label-exclude "^(large|realtime)$" -j "$(nproc)" --output-on-failure || status=1
+  ctest --test-dir "build/asan/tests/${folder}" --label-exclude "^(large|realtime)$" --exclude-regex "$window_tests" \
+    -j "$(nproc)" --output-on-failure || status=1
 done
+ASAN_OPTIONS="$ASAN_OPTIONS:detect_leaks=0" ctest --test-dir build/asan/tests/realtime --label-exclude "^(large|realtime)$" \
+  --tests-regex "$window_tests" -j "$(nproc)" --output-on-failure || status=1
 exit "$status"

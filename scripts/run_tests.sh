@@ -2,7 +2,7 @@
 # The default test run on a fresh Debian 12 machine: install, build, run every test not
 # labelled "large" (ctest -L large runs those), then the threaded tests under ThreadSanitizer,
 # then every parser's fuzz harness for a few seconds. (scripts/run_sanitizers.sh runs the
-# engine's tests under ASan + UBSan: not here yet, see its header.)
+# engine's tests under ASan + UBSan: not here, for its time; see its header.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Each phase's wall time, so that a slower run says where the time went.
