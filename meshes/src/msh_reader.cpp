@@ -68,6 +68,17 @@ class MshText {
       fail("expected " + std::string(wanted) + ", found '" + shorten(line) + "'");
     }
   }
+  /// Bytes after the current line.
+  std::size_t bytes_left() const { return position_ < text_.size() ? text_.size() - position_ : 0; }
+  /// Refuses a count of nodes that the rest of the file cannot hold (each takes a line of at
+  /// least "1 0 0 0\n"), before anything is reserved for it.
+  void check_node_count(long long count) const {
+    constexpr std::size_t shortest_node_bytes = 8;
+    if (count < 0) fail("negative node count in $Nodes");
+    if (static_cast<unsigned long long>(count) > bytes_left() / shortest_node_bytes)
+      fail("$Nodes claims " + std::to_string(count) + " nodes, more than the " + std::to_string(bytes_left()) +
+           " bytes left in the file can hold");
+  }
   [[noreturn]] void fail(const std::string& what) const {
     throw std::invalid_argument(path_ + ", line " + std::to_string(line_number_) + ": " + what);
   }
@@ -202,7 +213,7 @@ void read_nodes_v2(MshText& text, MshContent& content) {
   const char* section = "$Nodes";
   Fields header(text, text.require(section), section);
   const long long count = header.next<long long>("the number of nodes");
-  if (count < 0) text.fail("negative node count in $Nodes");
+  text.check_node_count(count);
   content.nodes.reserve(static_cast<std::size_t>(count));
   for (long long i = 0; i < count; ++i) {
     Fields fields(text, text.require(section), section);
@@ -220,7 +231,8 @@ void read_nodes_v4(MshText& text, MshContent& content) {
   Fields header(text, text.require(section), section);
   const long long blocks = header.next<long long>("the number of entity blocks");
   const long long count = header.next<long long>("the number of nodes");
-  if (blocks < 0 || count < 0) text.fail("negative count in $Nodes");
+  if (blocks < 0) text.fail("negative count in $Nodes");
+  text.check_node_count(count);
   content.nodes.reserve(static_cast<std::size_t>(count));
   std::vector<long long> tags;
   for (long long b = 0; b < blocks; ++b) {
