@@ -70,8 +70,8 @@ class MshText {
   }
   /// Bytes after the current line.
   std::size_t bytes_left() const { return position_ < text_.size() ? text_.size() - position_ : 0; }
-  /// Refuses a count of nodes that the rest of the file cannot hold (each takes a line of at
-  /// least "1 0 0 0\n"), before anything is reserved for it.
+  /// Refuses a count of nodes that the rest of the file cannot hold, before anything is reserved
+  /// for it: a node takes at least 8 bytes ("1 0 0 0\n" in MSH 2.2; "1\n" and "0 0 0\n" in 4.1).
   void check_node_count(long long count) const {
     constexpr std::size_t shortest_node_bytes = 8;
     if (count < 0) fail("negative node count in $Nodes");
