@@ -534,6 +534,103 @@ void check_non_manifold_vertices(const Surface& s, const Edges& e) {
   }
 }
 
+/// Whether segment pq crosses triangle abc (Möller–Trumbore with the segment's parameter in
+/// [0, 1]); a segment in the triangle's plane is not counted.
+bool segment_crosses_triangle(const Vector3d& p, const Vector3d& q, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
+  const Vector3d d = q - p, e1 = b - a, e2 = c - a;
+  const Vector3d h = d.cross(e2);
+  const double det = e1.dot(h);
+  const double scale = d.norm() * e1.norm() * e2.norm();
+  if (!(std::abs(det) > 1e-12 * scale)) return false;
+  const Vector3d r = p - a;
+  const double u = r.dot(h) / det;
+  if (u < 0 || u > 1) return false;
+  const Vector3d k = r.cross(e1);
+  const double v = d.dot(k) / det;
+  if (v < 0 || u + v > 1) return false;
+  const double t = e2.dot(k) / det;
+  return t >= 0 && t <= 1;
+}
+
+/// Triangles that pass through each other (an organ folded into itself, two shells that overlap):
+/// on such a surface "inside" has no meaning and no volume can be meshed. Only pairs sharing no
+/// vertex are tested, and only where an edge of one crosses the other; coplanar overlaps are not
+/// detected. Checked on closed, manifold, consistently oriented surfaces only (the defects before
+/// this one explain the others), through a uniform grid of cells about two edges wide.
+void check_self_intersections(const Surface& s) {
+  using Kind = SurfaceDefectKind;
+  const bool closed = std::none_of(s.defects->begin(), s.defects->end(), [](const SurfaceDefect& d) {
+    return d.kind != Kind::inward_orientation;
+  });
+  if (!closed || s.n == 0) return;
+  double edge_sum = 0;
+  for (int t = 0; t < s.n; ++t)
+    for (int k = 0; k < 3; ++k) edge_sum += (s.vertices[s.triangles[t][k]] - s.vertices[s.triangles[t][(k + 1) % 3]]).norm();
+  // Cells about two mean edges wide, coarsened until the triangles' cell ranges stay within a
+  // few dozen per triangle (a few huge triangles among small ones must not fill memory).
+  double cell = std::max(2 * edge_sum / (3.0 * s.n), 1e-3 * s.diagonal);
+  for (;;) {
+    double entries = 0;
+    for (int t = 0; t < s.n; ++t) {
+      const Vector3d& a = s.vertices[s.triangles[t][0]];
+      const Vector3d& b = s.vertices[s.triangles[t][1]];
+      const Vector3d& c = s.vertices[s.triangles[t][2]];
+      const Vector3d extent = a.cwiseMax(b).cwiseMax(c) - a.cwiseMin(b).cwiseMin(c);
+      entries += (extent.x() / cell + 2) * (extent.y() / cell + 2) * (extent.z() / cell + 2);
+    }
+    if (entries <= 64.0 * s.n + 1e6) break;
+    cell *= 2;
+  }
+  std::array<long long, 3> counts{};
+  for (int d = 0; d < 3; ++d) counts[d] = std::max(1LL, static_cast<long long>(std::ceil((s.upper[d] - s.lower[d]) / cell)) + 1);
+  const auto cell_of = [&](const Vector3d& x, int d) {
+    return std::clamp(static_cast<long long>(std::floor((x[d] - s.lower[d]) / cell)), 0LL, counts[d] - 1);
+  };
+  std::unordered_map<long long, std::vector<int>> cells;
+  std::vector<std::array<long long, 6>> boxes(s.n);
+  for (int t = 0; t < s.n; ++t) {
+    const Vector3d& a = s.vertices[s.triangles[t][0]];
+    const Vector3d& b = s.vertices[s.triangles[t][1]];
+    const Vector3d& c = s.vertices[s.triangles[t][2]];
+    const Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+    for (int d = 0; d < 3; ++d) boxes[t][d] = cell_of(lo, d), boxes[t][3 + d] = cell_of(hi, d);
+    for (long long x = boxes[t][0]; x <= boxes[t][3]; ++x)
+      for (long long y = boxes[t][1]; y <= boxes[t][4]; ++y)
+        for (long long z = boxes[t][2]; z <= boxes[t][5]; ++z) cells[(x * counts[1] + y) * counts[2] + z].push_back(t);
+  }
+  std::size_t count = 0;
+  std::pair<int, int> example{-1, -1};
+  for (const auto& [key, members] : cells) {
+    const long long z = key % counts[2], y = (key / counts[2]) % counts[1], x = key / (counts[1] * counts[2]);
+    for (std::size_t i = 0; i < members.size(); ++i)
+      for (std::size_t j = i + 1; j < members.size(); ++j) {
+        const int t = members[i], u = members[j];
+        // Each pair once: in the cell at the low corner of the overlap of their cell ranges.
+        if (x != std::max(boxes[t][0], boxes[u][0]) || y != std::max(boxes[t][1], boxes[u][1]) ||
+            z != std::max(boxes[t][2], boxes[u][2]))
+          continue;
+        const Vector3i& p = s.triangles[t];
+        const Vector3i& q = s.triangles[u];
+        bool shared = false;
+        for (int k = 0; k < 3; ++k)
+          for (int l = 0; l < 3; ++l) shared = shared || p[k] == q[l];
+        if (shared) continue;
+        bool crossing = false;
+        for (int k = 0; k < 3 && !crossing; ++k) {
+          crossing = segment_crosses_triangle(s.vertices[p[k]], s.vertices[p[(k + 1) % 3]], s.vertices[q[0]], s.vertices[q[1]], s.vertices[q[2]]) ||
+                     segment_crosses_triangle(s.vertices[q[k]], s.vertices[q[(k + 1) % 3]], s.vertices[p[0]], s.vertices[p[1]], s.vertices[p[2]]);
+        }
+        if (!crossing) continue;
+        if (count++ == 0) example = {std::min(t, u), std::max(t, u)};
+      }
+  }
+  if (count > 0)
+    s.report(Kind::self_intersection, count,
+             counted(count, "pair of intersecting triangles", "pairs of intersecting triangles") +
+                 " (the surface passes through itself), e.g. " + s.names.triangle(example.first) + " and " +
+                 s.names.triangle(example.second));
+}
+
 /// The volume's sign means something only on a closed, consistently oriented surface: returns
 /// the enclosed volume [m³] there (0 otherwise) and reports a non-positive one.
 double check_inward_orientation(const Surface& s) {
@@ -584,6 +681,7 @@ SurfaceAnalysis analyse_surface(const std::vector<Vector3d>& vertices, const std
   check_orientation_consistency(s, edges);
   check_non_manifold_vertices(s, edges);
   result.volume_m3 = check_inward_orientation(s);
+  check_self_intersections(s);
   result.neighbours = std::move(edges.neighbours);
   return result;
 }
@@ -606,6 +704,7 @@ const char* to_string(SurfaceDefectKind kind) {
     case SurfaceDefectKind::inconsistent_orientation: return "inconsistent orientation";
     case SurfaceDefectKind::non_manifold_vertex: return "non-manifold vertex";
     case SurfaceDefectKind::inward_orientation: return "inward orientation";
+    case SurfaceDefectKind::self_intersection: return "self-intersection";
   }
   return "unknown defect";
 }

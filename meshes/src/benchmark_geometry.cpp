@@ -3,6 +3,7 @@
 // physical groups that the FEM and the MFS rely on).
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "gmsh_session.hpp"
+#include "touchstone/meshes/organ_body_mesh.hpp"
 
 #include <gmsh.h>
 
@@ -25,34 +26,10 @@
 
 namespace touchstone::meshes {
 
-namespace {
+using internal::require_writable;
+using internal::write_msh_whole;
 
-/// gmsh::write reports no failed write: a full disk or a file-size limit leaves a truncated file
-/// that a later reader would take for a bad mesh. The file is written beside its path, checked
-/// to end with a section's $End line, and renamed into place (readers never see a partial file).
-void write_msh_whole(const std::string& msh_path) {
-  const std::string partial = msh_path + ".partial.msh";
-  gmsh::write(partial);
-  std::ifstream in(partial, std::ios::binary | std::ios::ate);
-  const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : -1;
-  std::string tail(static_cast<std::size_t>(std::max<std::streamoff>(0, std::min<std::streamoff>(size, 64))), '\0');
-  if (size > 0) {
-    in.seekg(size - static_cast<std::streamoff>(tail.size()));
-    in.read(tail.data(), static_cast<std::streamsize>(tail.size()));
-  }
-  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
-  const std::size_t line = tail.rfind('\n');
-  const std::string last_line = line == std::string::npos ? tail : tail.substr(line + 1);
-  if (last_line.rfind("$End", 0) != 0) {
-    std::remove(partial.c_str());
-    throw std::runtime_error("cannot write '" + msh_path + "': gmsh wrote an incomplete file (" +
-                             std::to_string(std::max<std::streamoff>(size, 0)) +
-                             " bytes; is the disk full, or a file-size limit reached?)");
-  }
-  std::error_code error;
-  std::filesystem::rename(partial, msh_path, error);
-  if (error) throw std::runtime_error("cannot write '" + msh_path + "': " + error.message());
-}
+namespace {
 
 constexpr double pi = 3.14159265358979323846;
 constexpr int max_refinement = 6;
@@ -331,6 +308,8 @@ gmsh::vectorpair volumes_of(const gmsh::vectorpair& entities) {
 void build_solid(const Shape& shape, ScriptedModel& model) {
   const MeshParameters& p = shape.parameters;
   switch (p.benchmark) {
+    case Benchmark::Organ:
+      throw std::logic_error("build_solid: organ bodies are meshed by generate_organ_body_mesh");
     case Benchmark::Box:
       model.add_box(0, 0, 0, p.box_size_m[0], p.box_size_m[1], p.box_size_m[2]);
       break;
@@ -419,6 +398,8 @@ Classified classify(const Shape& shape) {
     const auto points = sample_entity(dim, tag);
     int group = 0;
     switch (p.benchmark) {
+      case Benchmark::Organ:
+        throw std::logic_error("classify: organ bodies are meshed by generate_organ_body_mesh");
       case Benchmark::Box: {
         constexpr std::array<std::array<int, 2>, 3> tags{{
             {boundary_tags::x_min, boundary_tags::x_max},
@@ -650,14 +631,6 @@ auto run_gmsh(const char* operation, const MeshParameters& p, const std::string&
 }
 
 /// Fails before the (possibly long) meshing if the file cannot be written; leaves no file behind.
-void require_writable(const std::string& path) {
-  if (path.empty()) throw std::runtime_error("the output path is empty");
-  const bool existed = std::ifstream(path).good();
-  const bool writable = std::ofstream(path, std::ios::out | std::ios::app).good();
-  if (!existed) std::remove(path.c_str());
-  if (!writable) throw std::runtime_error("cannot open the output file for writing");
-}
-
 /// Per physical group: its entities and their measures (volume or area).
 using GroupFingerprints = std::map<std::pair<int, int>, std::vector<std::pair<int, double>>>;
 
@@ -793,6 +766,18 @@ void MeshParameters::validate() const {
     for (int axis = 0; axis < 3; ++axis) require_positive(fields[axis], box_size_m[axis]);
     return;
   }
+  if (benchmark == Benchmark::Organ) {
+    organ.validate();
+    require_positive("tool_radius_m", tool_radius_m);
+    require_positive("max_size_m", max_size_m);
+    require_positive("size_growth", size_growth);
+    if (!(size_exponent >= 0.25 && size_exponent <= 1.0)) reject("size_exponent", size_exponent, "must be in [0.25, 1]");
+    if (!(power_grading_extent >= 1.0)) reject("power_grading_extent", power_grading_extent, "must be >= 1");
+    if (edge_size_m > tool_radius_m / 2) reject("edge_size_m", edge_size_m, "must be <= tool_radius_m / 2 = " + text_of(tool_radius_m / 2));
+    if (max_size_m < edge_size_m) reject("max_size_m", max_size_m, "must be >= edge_size_m = " + text_of(edge_size_m));
+    if (exterior_of_local_ball) throw std::invalid_argument("MeshParameters.exterior_of_local_ball = true needs benchmark B1, B2 or B5, not organ");
+    return;
+  }
 
   require_positive("body_radius_m", body_radius_m);
   require_positive("tool_radius_m", tool_radius_m);
@@ -884,6 +869,7 @@ void MeshParameters::validate() const {
 
 MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& msh_path) {
   parameters.validate();
+  if (parameters.benchmark == Benchmark::Organ) return generate_organ_body_mesh(parameters, msh_path);
   return run_gmsh("generate_mesh", parameters, msh_path, [&] {
     const auto start = std::chrono::steady_clock::now();
     require_writable(msh_path);
@@ -922,6 +908,8 @@ MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& m
 
 void write_geometry_script(const MeshParameters& parameters, const std::string& geo_path) {
   parameters.validate();
+  if (parameters.benchmark == Benchmark::Organ)
+    throw std::invalid_argument("write_geometry_script: an organ body has no OpenCASCADE geometry; open its mesh instead");
   run_gmsh("write_geometry_script", parameters, geo_path, [&] {
     require_writable(geo_path);
     ScriptedModel model;
@@ -948,6 +936,10 @@ ContactSite contact_site(const MeshParameters& parameters) {
   if (parameters.benchmark == Benchmark::Box) {
     throw std::invalid_argument("contact_site: the box benchmark has no contact");
   }
+  if (parameters.benchmark == Benchmark::Organ) {
+    const OrganContactSite organ = organ_contact_site(parameters.organ);
+    return {organ.point_m, {-organ.tool_axis[0], -organ.tool_axis[1], -organ.tool_axis[2]}};
+  }
   const Shape shape = make_shape(parameters);
   ContactSite site;
   site.outward_normal = shape.patch_axis;
@@ -962,6 +954,7 @@ std::string to_string(Benchmark benchmark) {
     case Benchmark::B3: return "B3";
     case Benchmark::B5: return "B5";
     case Benchmark::Box: return "box";
+    case Benchmark::Organ: return "organ";
   }
   throw std::invalid_argument("unknown Benchmark value " +
                               std::to_string(static_cast<int>(benchmark)));
@@ -972,7 +965,7 @@ Benchmark benchmark_from_string(const std::string& name) {
   std::transform(lower.begin(), lower.end(), lower.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   for (const Benchmark benchmark :
-       {Benchmark::B1, Benchmark::B2, Benchmark::B3, Benchmark::B5, Benchmark::Box}) {
+       {Benchmark::B1, Benchmark::B2, Benchmark::B3, Benchmark::B5, Benchmark::Box, Benchmark::Organ}) {
     std::string candidate = to_string(benchmark);
     std::transform(candidate.begin(), candidate.end(), candidate.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });

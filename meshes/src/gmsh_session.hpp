@@ -20,4 +20,12 @@ class GmshSession {
   std::lock_guard<std::mutex> lock_;
 };
 
+/// Writes the current gmsh model's mesh to msh_path whole or not at all: gmsh::write reports no
+/// failed write, so the file is written beside its path, checked to end with an $End line and
+/// renamed into place. Throws std::runtime_error naming the path.
+void write_msh_whole(const std::string& msh_path);
+
+/// Throws std::runtime_error when `path` cannot be opened for writing (before any meshing work).
+void require_writable(const std::string& path);
+
 }  // namespace touchstone::meshes::internal

@@ -300,19 +300,21 @@ class ElasticitySolver {
     }
     int k = 0;
     d.cwiseAbs().maxCoeff(&k);
-    std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
+    std::vector<types::global_dof_index> face_dofs;
     for (const auto& cell : dof_handler_.active_cell_iterators()) {
       if (cell->is_artificial()) continue;
       for (const auto f : cell->face_indices()) {
         if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != patch) continue;
-        cell->get_dof_indices(dofs);
-        // Group the face's dofs by support point: the scalar base index is shared by the
-        // three components of one node.
+        // The face's own dofs: FiniteElement::has_support_on_face cannot select them, since
+        // deal.II 9.4's simplex elements keep its default "true" for every dof of the cell (which
+        // would constrain the nodes one layer under the patch too). Group them by support point:
+        // the base index is shared by the three components of one node.
+        face_dofs.resize(fe_.n_dofs_per_face(f));
+        cell->face(f)->get_dof_indices(face_dofs);
         std::map<unsigned int, std::array<types::global_dof_index, dim>> nodes;
-        for (unsigned int i = 0; i < fe_.n_dofs_per_cell(); ++i) {
-          if (!fe_.has_support_on_face(i, f)) continue;
-          const auto [component, base_index] = fe_.system_to_component_index(i);
-          nodes[base_index][component] = dofs[i];
+        for (unsigned int i = 0; i < face_dofs.size(); ++i) {
+          const auto [component, base_index] = fe_.face_system_to_component_index(i, f);
+          nodes[base_index][component] = face_dofs[i];
         }
         for (const auto& [base_index, node] : nodes) {
           const auto line = node[k];
@@ -457,15 +459,15 @@ class ElasticitySolver {
     const types::boundary_id patch =
         problem_.punch ? boundary_id("tool_patch", true) : numbers::invalid_boundary_id;
     const unsigned int n = fe_.n_dofs_per_cell();
-    std::vector<types::global_dof_index> dofs(n);
+    std::vector<types::global_dof_index> dofs(n), face_dofs;
     if (problem_.punch) {
       for (const auto& cell : dof_handler_.active_cell_iterators()) {
         if (cell->is_artificial()) continue;
         for (const auto f : cell->face_indices()) {
           if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != patch) continue;
-          cell->get_dof_indices(dofs);
-          for (unsigned int i = 0; i < n; ++i)
-            if (fe_.has_support_on_face(i, f)) on_patch[dofs[i]] = true;
+          face_dofs.resize(fe_.n_dofs_per_face(f));
+          cell->face(f)->get_dof_indices(face_dofs);  // not has_support_on_face: see add_punch_constraints
+          for (const auto dof : face_dofs) on_patch[dof] = true;
         }
       }
     }

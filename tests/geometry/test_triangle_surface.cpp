@@ -581,6 +581,28 @@ TEST(ValidateSurface, ValidSurfacesHaveNoDefects) {
             std::vector<SurfaceDefectKind>{SurfaceDefectKind::non_finite_coordinate});
 }
 
+// Two closed spheres in one surface: each is valid alone; overlapping, they pass through each
+// other along a circle, and no inside exists. Apart, they are a valid two-shell surface.
+TEST(ValidateSurface, FindsTrianglesThatPassThroughEachOther) {
+  const Mesh sphere = icosphere(3, 1.0);
+  const auto two_spheres = [&](double offset) {
+    Mesh both = sphere;
+    const int shift = static_cast<int>(sphere.vertices.size());
+    for (const Vector3d& v : sphere.vertices) both.vertices.push_back(v + Vector3d(offset, 0.0, 0.0));
+    for (const Vector3i& t : sphere.triangles) both.triangles.push_back(t + Vector3i::Constant(shift));
+    return both;
+  };
+  const Mesh apart = two_spheres(2.5);
+  EXPECT_TRUE(validate_surface(apart.vertices, apart.triangles).empty());
+  const Mesh overlapping = two_spheres(1.05);  // not 1: vertices at x = ±0.5 would coincide
+  const auto defects = validate_surface(overlapping.vertices, overlapping.triangles, "two.stl");
+  ASSERT_EQ(kinds(defects), std::vector<SurfaceDefectKind>{SurfaceDefectKind::self_intersection});
+  // The intersection circle (radius 0.85) crosses about 2π·0.85 / 0.15 ≈ 36 triangles of each.
+  EXPECT_GT(defects[0].count, 30u);
+  EXPECT_TRUE(mentions(defects[0], "two.stl: ")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "passes through itself")) << defects[0].message;
+}
+
 TEST(ValidateSurface, CountsHolesAndBoundaryEdges) {
   const Mesh good = icosphere(1, 1.0);
   // Two triangles far apart: two holes of three edges each.

@@ -67,23 +67,23 @@ double b3_level0_force(double nu, Formulation formulation) {
   return axial;
 }
 
-// Locking. Reference: the Richardson estimate of the mixed B3 ladder at ν = 0.4999 (this mesh
-// family, levels 0–2, 24k/137k/935k dofs: 26.823, 25.869, 25.599 mN, observed order 1.82, GCI
-// 0.52 %), F_ref = 25.493 mN, measured with `touchstone fem` and studies/configs/b3_reference_mixed.toml
-// restricted to frictionless, ν = 0.4999, edge_size a/16. On level 0 the mixed force sits 5.2 %
-// above it (the first-order edge error, as the displacement formulation at ν = 0.45), the
-// displacement formulation's 32 % above (locking). Tolerances: mixed within (0, +8 %],
-// displacement above +25 %.
+// Locking. Reference: the finest level of the mixed B3 ladder at ν = 0.4999 (this mesh family,
+// levels 0–2, 24k/137k/935k dofs: 25.317, 25.357, 25.396 mN), measured with `touchstone fem` and
+// studies/configs/b3_reference_mixed.toml restricted to frictionless, ν = 0.4999, edge_size a/16.
+// The ladder rises by 0.16 % per level with no asymptotic order, so it is not extrapolated. On
+// level 0 the mixed force sits 0.3 % below it; the displacement formulation sits 12.6 % above it
+// on the same mesh (locking). Tolerances: mixed within ± 2 %, displacement above +10 %.
+// (Before the frictionless patch constraint was limited to the patch faces' own nodes, the
+// ladder read 26.823, 25.869, 25.599 mN and the displacement formulation was 32 % above.)
 TEST(MixedFormulation, PunchForceDoesNotLockNearIncompressibility) {
-  const double reference = 25.493e-3;
+  const double reference = 25.396e-3;
   const double displacement = b3_level0_force(0.4999, Formulation::displacement);
   const double mixed = b3_level0_force(0.4999, Formulation::mixed_p0disc);
   if (MpiSession::rank() == 0)
     std::printf("  nu = 0.4999: F/F_ref displacement %.4f, mixed %.4f\n", displacement / reference,
                 mixed / reference);
-  EXPECT_GT(displacement, 1.25 * reference);
-  EXPECT_GT(mixed, reference);
-  EXPECT_LT(mixed, 1.08 * reference);
+  EXPECT_GT(displacement, 1.10 * reference);
+  EXPECT_NEAR(mixed, reference, 0.02 * reference);
 }
 
 // Far from the limit both are consistent discretisations of the same problem: they differ by

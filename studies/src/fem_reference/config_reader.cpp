@@ -354,6 +354,17 @@ std::string ConfigTable::string(const std::string& key) {
   state_->type_error(key, node, "a string");
 }
 
+std::string ConfigTable::file_path(const std::string& key, const std::string& default_value) {
+  const std::string name = string(key, default_value);
+  if (name.empty()) return name;
+  std::filesystem::path path(name);
+  if (path.is_relative()) path = std::filesystem::path(state_->source).parent_path() / path;
+  std::error_code ignored;
+  if (!std::filesystem::is_regular_file(path, ignored))
+    throw ConfigError(state_->where(key) + ": no such file '" + path.string() + "'");
+  return std::filesystem::absolute(path).lexically_normal().string();
+}
+
 std::string ConfigTable::choice(const std::string& key, const std::vector<std::string>& choices,
                                 const std::string& default_value) {
   std::string list;

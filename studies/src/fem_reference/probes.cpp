@@ -21,12 +21,20 @@ std::string multiple_of_a(const std::string& prefix, double value) {
 }  // namespace
 
 Eigen::Vector3d outward_normal(const meshes::MeshParameters& geometry) {
+  if (geometry.benchmark == Benchmark::Organ) {
+    const auto n = meshes::contact_site(geometry).outward_normal;
+    return {n[0], n[1], n[2]};
+  }
   if (!has_spherical_surface(geometry.benchmark)) return Eigen::Vector3d::UnitZ();
   const double theta = geometry.benchmark == Benchmark::B5 ? geometry.contact_polar_angle_rad : 0.0;
   return {std::sin(theta), 0.0, std::cos(theta)};
 }
 
 Eigen::Vector3d contact_point(const meshes::MeshParameters& geometry) {
+  if (geometry.benchmark == Benchmark::Organ) {
+    const auto c = meshes::contact_site(geometry).point_m;
+    return {c[0], c[1], c[2]};
+  }
   if (!has_spherical_surface(geometry.benchmark)) return Eigen::Vector3d::Zero();
   return geometry.body_radius_m * outward_normal(geometry);
 }
@@ -47,6 +55,8 @@ std::vector<Probe> indentation_probes(const meshes::MeshParameters& geometry,
     if (s * a < reach) probes.push_back({multiple_of_a("axis", s), c + s * a * d});
   for (const double rho : {0.0, 0.5, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0}) {
     if (rho * a >= reach) continue;
+    // A user's surface is known only by its triangles: the contact point alone lies on it.
+    if (geometry.benchmark == Benchmark::Organ && rho > 0) continue;
     Eigen::Vector3d p;
     if (has_spherical_surface(geometry.benchmark)) {
       const double phi = std::asin(rho * a / geometry.body_radius_m);

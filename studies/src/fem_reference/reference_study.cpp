@@ -3,6 +3,7 @@
 #include "least_squares_line.hpp"
 
 #include "touchstone/fem/richardson.hpp"
+#include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/studies/fem_reference/probes.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
@@ -496,7 +497,27 @@ double half_space_punch_force_N(const geometry::Material& material, double tool_
 
 void ReferenceStudy::validate() const {
   if (name.empty()) throw std::invalid_argument("study name is empty");
-  geometry.validate();
+  meshes::MeshParameters checked = geometry;
+  if (!generated_organ.empty()) {
+    if (geometry.benchmark != meshes::Benchmark::Organ)
+      throw std::invalid_argument("organ.generate = '" + generated_organ + "' needs geometry.benchmark = organ");
+    if (!geometry.organ.surface_path.empty())
+      throw std::invalid_argument("organ.generate and organ.surface are both set: give one");
+    meshes::organ_shape_from_string(generated_organ);  // throws naming the value
+    if (generated_organ_triangles < 100 || generated_organ_triangles > 1000000)
+      throw std::invalid_argument("organ.generate_triangles = " + std::to_string(generated_organ_triangles) + " must be in [100, 1000000]");
+    checked.organ.surface_path = "(generated)";
+  }
+  checked.validate();
+  if (geometry.benchmark == meshes::Benchmark::Organ && geometry.organ.attachment.rule_count() == 0) {
+    const bool frictionless = contacts.empty() ? punch.contact == geometry::ContactCondition::frictionless
+                                               : std::count(contacts.begin(), contacts.end(), geometry::ContactCondition::frictionless) > 0;
+    if (frictionless)
+      throw std::invalid_argument(
+          "organ: no attachment is set, and a frictionless tool holds only the push direction: the organ could slide and spin "
+          "(rigid-body modes). Set organ.attachment_plane_point/attachment_plane_normal, attachment_group or attachment_triangles, "
+          "or use a bonded tool");
+  }
   material.validate();
   punch.validate();
   solver.validate();
@@ -523,11 +544,30 @@ void ReferenceStudy::validate() const {
 
 nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions& options) {
   study.validate();
-  return Runner(study, options).run();
+  if (study.generated_organ.empty()) return Runner(study, options).run();
+  // The generated surface is deterministic: one file per shape, size and count, shared by runs.
+  ReferenceStudy with_surface = study;
+  const fs::path folder = fs::path(options.cache_directory.empty() ? options.output_directory : options.cache_directory) / "organs";
+  std::ostringstream name;
+  name << study.generated_organ << "_" << study.generated_organ_triangles << "_R" << format_number(study.geometry.body_radius_m) << ".stl";
+  const std::string path = (folder / name.str()).string();
+  if (fem::MpiSession::rank() == 0 && !fs::exists(path)) {
+    fs::create_directories(folder);
+    meshes::OrganParameters organ;
+    organ.shape = meshes::organ_shape_from_string(study.generated_organ);
+    organ.target_triangles = study.generated_organ_triangles;
+    organ.hemisphere_radius_m = study.geometry.body_radius_m;
+    meshes::write_organ_mesh(organ, path + ".partial.stl");
+    fs::rename(path + ".partial.stl", path);
+  }
+  fem::MpiSession::barrier();
+  with_surface.geometry.organ.surface_path = fs::absolute(path).lexically_normal().string();
+  with_surface.generated_organ.clear();  // config.resolved.toml names the file that was used
+  return Runner(with_surface, options).run();
 }
 
 json mesh_parameters_json(const meshes::MeshParameters& g) {
-  return {{"benchmark", meshes::to_string(g.benchmark)},
+  json parameters{{"benchmark", meshes::to_string(g.benchmark)},
           {"body_radius_m", g.body_radius_m},
           {"tool_radius_m", g.tool_radius_m},
           {"local_radius_m", g.local_radius_m},
@@ -539,6 +579,20 @@ json mesh_parameters_json(const meshes::MeshParameters& g) {
           {"power_grading_extent", g.power_grading_extent},
           {"max_size_m", g.max_size_m},
           {"refinement", g.refinement}};
+  if (g.benchmark != meshes::Benchmark::Organ) return parameters;
+  // The surface by its content: an edited file is a new problem, a moved one is not.
+  const meshes::OrganBody& o = g.organ;
+  const meshes::OrganAttachment& held = o.attachment;
+  parameters["organ"] = {{"surface_sha256", sha256_hex(read_file(o.surface_path))},
+                         {"unit_scale", o.unit_scale},
+                         {"contact_point_m", o.contact_point_m},
+                         {"tool_axis", o.tool_axis},
+                         {"attachment_plane_point_m", held.plane_point_m},
+                         {"attachment_plane_normal", held.plane_normal},
+                         {"attachment_group", held.msh_group},
+                         {"attachment_triangles_sha256", held.triangles_path.empty() ? "" : sha256_hex(read_file(held.triangles_path))},
+                         {"feature_angle_rad", o.feature_angle_rad}};
+  return parameters;
 }
 
 }  // namespace touchstone::studies

@@ -23,7 +23,8 @@ const std::vector<Named<meshes::Benchmark>> benchmarks{{"B1", meshes::Benchmark:
                                                        {"B2", meshes::Benchmark::B2},
                                                        {"B3", meshes::Benchmark::B3},
                                                        {"B5", meshes::Benchmark::B5},
-                                                       {"box", meshes::Benchmark::Box}};
+                                                       {"box", meshes::Benchmark::Box},
+                                                       {"organ", meshes::Benchmark::Organ}};
 // "mixed" is the recommended name of the mixed formulation (P2–P0, condensed) for ν ≥ 0.49,
 // where the displacement formulation locks.
 const std::vector<Named<fem::Formulation>> formulations{{"displacement", fem::Formulation::displacement},
@@ -53,7 +54,7 @@ std::vector<SettingField<S>> make_fields() {
   std::vector<SettingField<S>> f;
   f.push_back(field::text<S>({"", "study", "", "the study's name"}, [](auto& s) -> auto& { return s.name; }));
 
-  f.push_back(field::choice<S>({"geometry", "benchmark", "", "B1, B2, B3, B5 or box"}, benchmarks,
+  f.push_back(field::choice<S>({"geometry", "benchmark", "", "B1, B2, B3, B5, box, or organ (a surface file: [organ])"}, benchmarks,
                                [](auto& s) -> auto& { return s.geometry.benchmark; }));
   f.push_back(length({"geometry", "body_radius", "m", "R (B2, B3, B5) or W (B1)"}, [](auto& s) -> auto& { return s.geometry.body_radius_m; }));
   f.push_back(length({"geometry", "tool_radius", "m", "radius a of the tool patch"}, [](auto& s) -> auto& { return s.geometry.tool_radius_m; }));
@@ -66,6 +67,46 @@ std::vector<SettingField<S>> make_fields() {
   f.push_back(local_radius);
   f.push_back(field::quantity<S>({"geometry", "contact_polar_angle", "rad", "polar angle of the patch centre (B5)"},
                                  Dimension::angle, [](auto& s) -> auto& { return s.geometry.contact_polar_angle_rad; }));
+
+  // A user's organ (benchmark = "organ"): its surface, the contact and the attachment.
+  const auto organ_vector = [](FieldNames n, Dimension dimension, auto get) {
+    const std::string key = n.key;
+    return SettingField<S>{n.section, n.key, n.params_key, n.unit, n.doc,
+                           [get, key, dimension](ConfigTable& t, S& s) { get(s) = t.vector3(key, dimension, get(s)); },
+                           [get](const S& s) {
+                             const auto& v = get(s);
+                             return nlohmann::json{v[0], v[1], v[2]};
+                           }};
+  };
+  const auto organ_file = [](FieldNames n, auto get) {
+    const std::string key = n.key;
+    return SettingField<S>{n.section, n.key, n.params_key, n.unit, n.doc,
+                           [get, key](ConfigTable& t, S& s) { get(s) = t.file_path(key, get(s)); },
+                           [get](const S& s) { return nlohmann::json(get(s)); }};
+  };
+  f.push_back(organ_file({"organ", "surface", "", "closed surface file (.msh, .obj, .stl, .vtk, .vtp), relative to this file"},
+                         [](auto& s) -> auto& { return s.geometry.organ.surface_path; }));
+  f.push_back(real({"organ", "unit_scale", "m per file unit", "1e-3 for a file in millimetres"},
+                   [](auto& s) -> auto& { return s.geometry.organ.unit_scale; }));
+  f.push_back(organ_vector({"organ", "contact_point", "m", "the patch is centred at the surface point nearest to this"},
+                           Dimension::length, [](auto& s) -> auto& { return s.geometry.organ.contact_point_m; }));
+  f.push_back(organ_vector({"organ", "tool_axis", "", "tool axis into the organ ([0, 0, 0]: the inward normal)"},
+                           Dimension::dimensionless, [](auto& s) -> auto& { return s.geometry.organ.tool_axis; }));
+  f.push_back(organ_vector({"organ", "attachment_plane_point", "m", "held: triangles below the plane through this point"},
+                           Dimension::length, [](auto& s) -> auto& { return s.geometry.organ.attachment.plane_point_m; }));
+  f.push_back(organ_vector({"organ", "attachment_plane_normal", "", "the plane's normal (\"below\": against it; [0, 0, 0]: no plane)"},
+                           Dimension::dimensionless, [](auto& s) -> auto& { return s.geometry.organ.attachment.plane_normal; }));
+  f.push_back(field::text<S>({"organ", "attachment_group", "", "held: this physical group of a .msh surface"},
+                             [](auto& s) -> auto& { return s.geometry.organ.attachment.msh_group; }));
+  f.push_back(organ_file({"organ", "attachment_triangles", "", "held: the triangle numbers (from 0) listed in this file"},
+                         [](auto& s) -> auto& { return s.geometry.organ.attachment.triangles_path; }));
+  f.push_back(field::text<S>({"organ", "generate", "", "no surface file: generate this organ (hemisphere of radius body_radius, or stomach)"},
+                             [](auto& s) -> auto& { return s.generated_organ; }));
+  f.push_back({"organ", "generate_triangles", "", "triangles", "the generated organ's triangle count",
+               [](ConfigTable& t, S& s) { s.generated_organ_triangles = read_int(t, "generate_triangles", s.generated_organ_triangles); },
+               [](const S& s) { return nlohmann::json(s.generated_organ_triangles); }});
+  f.push_back(field::quantity<S>({"organ", "feature_angle", "rad", "creases sharper than this are kept when remeshing"},
+                                 Dimension::angle, [](auto& s) -> auto& { return s.geometry.organ.feature_angle_rad; }));
 
   // Mesh families: one level-0 edge size, or several (each its own Richardson sequence).
   SettingField<S> edge_size = field::quantity_list<S>({"mesh", "edge_size", "m", "level-0 element size at the patch rim (default a / 16)"},

@@ -61,4 +61,11 @@ inline Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen
   return a + ab * (vb * denominator) + ac * (vc * denominator);
 }
 
+/// The closest point alone.
+inline Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                           const Eigen::Vector3d& b, const Eigen::Vector3d& c) noexcept {
+  int feature = face_feature;
+  return closest_on_triangle(p, a, b, c, feature);
+}
+
 }  // namespace touchstone::geometry

@@ -40,6 +40,7 @@ enum class SurfaceDefectKind {
   inconsistent_orientation,  ///< neighbours traverse their common edge in the same direction
   non_manifold_vertex,       ///< a vertex whose triangles form separate fans
   inward_orientation,        ///< closed and consistent, but the enclosed volume is negative
+  self_intersection,         ///< two triangles sharing no vertex pass through each other
 };
 
 /// Short name of a defect kind, e.g. "hole (boundary edge)", "non-manifold edge".

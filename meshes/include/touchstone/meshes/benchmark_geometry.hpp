@@ -8,6 +8,8 @@
 /// geometry, so the patch edge is exact; a size field grades the mesh toward that edge, where
 /// the contact stress is singular.
 
+#include "touchstone/meshes/organ_body.hpp"
+
 #include <array>
 #include <cstddef>
 #include <string>
@@ -21,6 +23,7 @@ enum class Benchmark {
   B3,   ///< B2 ∩ ball(pole, L): the MFS local domain; the sphere of radius L is the "cut" surface
   B5,   ///< B2 with the patch centred at polar angle θ from the pole (rotated about the y axis)
   Box,  ///< box [0, Lx]×[0, Ly]×[0, Lz] for tests; faces named x_min … z_max
+  Organ,  ///< a user's closed surface (MeshParameters::organ), meshed by organ_body_mesh.hpp
 };
 
 /// Fixed physical-group tags. Surfaces: base, tool_patch, free, cut (benchmarks) and the six box
@@ -47,6 +50,7 @@ struct MeshParameters {
   double local_radius_m = 0.0125;     ///< L (B3, and exterior meshes), radius of the ball around the contact
   double contact_polar_angle_rad = 0; ///< θ (B5 only), polar angle of the patch centre, 0 < θ < π/2
   std::array<double, 3> box_size_m{{1.0, 1.0, 1.0}};  ///< Box only
+  OrganBody organ;  ///< Organ only: the surface, the contact and the attachment (body_radius_m unused)
   /// B1, B2, B5: mesh the body MINUS ball(c, local_radius_m) instead of the body, c the patch
   /// centre on the surface (B1: the top centre (0, 0, 0); B2: the pole; B5: R (sin θ, 0, cos θ)).
   /// This is the exterior of the MFS local domain, whose stiffness the enriched model needs. The
@@ -89,7 +93,9 @@ struct MeshSummary {
 
 /// Where the tool meets a benchmark body: the patch centre c on the surface [m] and the unit
 /// outward surface normal there. B1: (0, 0, 0) and +z; B2, B3: (0, 0, R) and +z; B5:
-/// R (sin θ, 0, cos θ) and (sin θ, 0, cos θ). Box: throws std::invalid_argument.
+/// R (sin θ, 0, cos θ) and (sin θ, 0, cos θ). Organ: the surface point nearest to
+/// organ.contact_point_m and minus the tool axis (organ_contact_site). Box: throws
+/// std::invalid_argument.
 struct ContactSite {
   std::array<double, 3> point_m{{0.0, 0.0, 0.0}};
   std::array<double, 3> outward_normal{{0.0, 0.0, 1.0}};
@@ -104,7 +110,7 @@ MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& m
 /// Writes the same geometry as a .geo_unrolled script (opens in the gmsh GUI) for inspection.
 void write_geometry_script(const MeshParameters& parameters, const std::string& geo_path);
 
-/// "B1" … "B5", "box"; and back (throws std::invalid_argument naming the value).
+/// "B1" … "B5", "box", "organ"; and back (throws std::invalid_argument naming the value).
 std::string to_string(Benchmark benchmark);
 Benchmark benchmark_from_string(const std::string& name);
 

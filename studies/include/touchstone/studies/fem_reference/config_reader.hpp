@@ -57,6 +57,9 @@ class ConfigTable {
   bool boolean(const std::string& key, bool default_value);
   std::string string(const std::string& key, const std::string& default_value);
   std::string string(const std::string& key);  ///< required
+  /// A file name: relative names are taken from the config file's folder; the file must exist
+  /// (else a ConfigError naming the key and the path). Absolute and normalised; absent: the default.
+  std::string file_path(const std::string& key, const std::string& default_value);
   /// A string that must be one of `choices`; the error lists them.
   std::string choice(const std::string& key, const std::vector<std::string>& choices,
                      const std::string& default_value);

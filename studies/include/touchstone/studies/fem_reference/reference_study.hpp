@@ -32,6 +32,10 @@ struct ReferenceStudy {
   /// Mesh families: level-0 edge sizes [m]; with two or more, each gets its own Richardson
   /// sequence and the reference is their mean, its uncertainty their spread.
   std::vector<double> edge_sizes_m;
+  /// benchmark = organ without a surface file: generate this organ surface ("hemisphere" of
+  /// radius geometry.body_radius_m, or "stomach") at this triangle count, once, into the cache.
+  std::string generated_organ;
+  int generated_organ_triangles = 20000;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
