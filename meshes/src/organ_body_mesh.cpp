@@ -40,10 +40,9 @@ std::string text_of(double value) {
 Eigen::Vector3d vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 std::array<double, 3> arr(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-/// The organ surface as read and validated.
+/// The organ surface as read and validated, with the geometry core's closest-point tree.
 struct Surface {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<Eigen::Vector3i> triangles;
+  geometry::TriangleSurface body;
   double diagonal_m = 0;
 };
 
@@ -51,110 +50,32 @@ Surface read_valid_surface(const OrganBody& organ) {
   SurfaceReadOptions options;
   options.unit_scale = organ.unit_scale;
   options.weld_vertices = true;
-  SurfaceMesh mesh = read_surface_mesh(organ.surface_path, options);
-  const auto defects = validate_surface_mesh(mesh);
-  if (!defects.empty()) {
-    std::string text = "organ surface '" + organ.surface_path + "' cannot bound a body:";
-    for (std::size_t i = 0; i < defects.size() && i < 4; ++i) text += " " + defects[i].message + ";";
-    throw std::invalid_argument(text);
+  try {
+    Surface surface{load_surface(organ.surface_path, options), 0};
+    Eigen::Vector3d lower = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), upper = -lower;
+    for (const auto& v : surface.body.vertices()) lower = lower.cwiseMin(v), upper = upper.cwiseMax(v);
+    surface.diagonal_m = (upper - lower).norm();
+    return surface;
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("organ surface '" + organ.surface_path + "' is not usable as an organ body: " + e.what());
   }
-  Surface surface{std::move(mesh.vertices), std::move(mesh.triangles), 0};
-  Eigen::Vector3d lower = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), upper = -lower;
-  for (const auto& t : surface.triangles)
-    for (int k = 0; k < 3; ++k) {
-      lower = lower.cwiseMin(surface.vertices[static_cast<std::size_t>(t[k])]);
-      upper = upper.cwiseMax(surface.vertices[static_cast<std::size_t>(t[k])]);
-    }
-  surface.diagonal_m = (upper - lower).norm();
-  return surface;
 }
 
 Eigen::Vector3d corner(const std::vector<Eigen::Vector3d>& vertices, const Eigen::Vector3i& t, int k) {
   return vertices[static_cast<std::size_t>(t[k])];
 }
 
-/// Uniform grid over triangles for nearest-triangle queries from points on (or very near) the
-/// surface: the remeshed triangles inherit the attachment of the input triangle they lie on.
-class TriangleGrid {
- public:
-  TriangleGrid(const std::vector<Eigen::Vector3d>& vertices, const std::vector<Eigen::Vector3i>& triangles)
-      : vertices_(vertices), triangles_(triangles) {
-    lower_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::Vector3d upper = -lower_;
-    double edges = 0;
-    for (const auto& t : triangles) {
-      for (int k = 0; k < 3; ++k) {
-        lower_ = lower_.cwiseMin(corner(vertices, t, k));
-        upper = upper.cwiseMax(corner(vertices, t, k));
-        edges += (corner(vertices, t, k) - corner(vertices, t, (k + 1) % 3)).norm();
-      }
-    }
-    cell_ = std::max(2 * edges / (3.0 * static_cast<double>(triangles.size())), 1e-12 * (upper - lower_).norm());
-    for (int d = 0; d < 3; ++d) counts_[d] = std::max(1, static_cast<int>(std::ceil((upper[d] - lower_[d]) / cell_)) + 1);
-    for (std::size_t i = 0; i < triangles.size(); ++i) {
-      Eigen::Vector3d lo = corner(vertices, triangles[i], 0), hi = lo;
-      for (int k = 1; k < 3; ++k) lo = lo.cwiseMin(corner(vertices, triangles[i], k)), hi = hi.cwiseMax(corner(vertices, triangles[i], k));
-      const auto a = cell_of(lo), b = cell_of(hi);
-      for (int x = a[0]; x <= b[0]; ++x)
-        for (int y = a[1]; y <= b[1]; ++y)
-          for (int z = a[2]; z <= b[2]; ++z) cells_[key(x, y, z)].push_back(i);
-    }
-  }
-
-  /// The triangle nearest to p: searches rings of cells until no closer triangle can exist.
-  std::size_t nearest(const Eigen::Vector3d& p) const {
-    const auto c = cell_of(p);
-    std::size_t best = 0;
-    double best_distance = std::numeric_limits<double>::infinity();
-    const int max_ring = std::max({counts_[0], counts_[1], counts_[2]});
-    for (int ring = 0; ring <= max_ring; ++ring) {
-      for (int x = c[0] - ring; x <= c[0] + ring; ++x)
-        for (int y = c[1] - ring; y <= c[1] + ring; ++y)
-          for (int z = c[2] - ring; z <= c[2] + ring; ++z) {
-            if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != ring) continue;
-            const auto it = cells_.find(key(x, y, z));
-            if (it == cells_.end()) continue;
-            for (const std::size_t i : it->second) {
-              const Eigen::Vector3i& t = triangles_[i];
-              const double d = (geometry::closest_on_triangle(p, corner(vertices_, t, 0), corner(vertices_, t, 1), corner(vertices_, t, 2)) - p).norm();
-              if (d < best_distance) best_distance = d, best = i;
-            }
-          }
-      // Every triangle not yet seen lies outside the searched block, at least ring · cell away.
-      if (best_distance <= ring * cell_) break;
-    }
-    return best;
-  }
-
- private:
-  std::array<int, 3> cell_of(const Eigen::Vector3d& p) const {
-    std::array<int, 3> c{};
-    for (int d = 0; d < 3; ++d) c[d] = std::clamp(static_cast<int>(std::floor((p[d] - lower_[d]) / cell_)), 0, counts_[d] - 1);
-    return c;
-  }
-  long long key(int x, int y, int z) const {
-    return (static_cast<long long>(x) * counts_[1] + y) * counts_[2] + z;
-  }
-
-  const std::vector<Eigen::Vector3d>& vertices_;
-  const std::vector<Eigen::Vector3i>& triangles_;
-  Eigen::Vector3d lower_;
-  double cell_ = 1;
-  std::array<int, 3> counts_{{1, 1, 1}};
-  std::unordered_map<long long, std::vector<std::size_t>> cells_;
-};
-
 /// Per input triangle: held by the attachment rule.
 std::vector<char> attached_triangles(const OrganBody& organ, const Surface& surface) {
   const OrganAttachment& rule = organ.attachment;
-  std::vector<char> held(surface.triangles.size(), 0);
+  std::vector<char> held(surface.body.triangles().size(), 0);
   std::string described;
   if (rule.has_plane()) {
     const Eigen::Vector3d p = vec(rule.plane_point_m), n = vec(rule.plane_normal).normalized();
     const double tolerance = 1e-6 * surface.diagonal_m;
     for (std::size_t i = 0; i < held.size(); ++i) {
       bool below = true;
-      for (int k = 0; k < 3; ++k) below = below && (corner(surface.vertices, surface.triangles[i], k) - p).dot(n) <= tolerance;
+      for (int k = 0; k < 3; ++k) below = below && (corner(surface.body.vertices(), surface.body.triangles()[i], k) - p).dot(n) <= tolerance;
       held[i] = below ? 1 : 0;
     }
     described = "the plane rule (point " + text_of(p.x()) + ", " + text_of(p.y()) + ", " + text_of(p.z()) + " m, normal " +
@@ -176,8 +97,8 @@ std::vector<char> attached_triangles(const OrganBody& organ, const Surface& surf
     for (const auto& t : group.triangles)
       in_group.insert(corners_key({corner(group.vertices, t, 0), corner(group.vertices, t, 1), corner(group.vertices, t, 2)}));
     for (std::size_t i = 0; i < held.size(); ++i) {
-      const auto& t = surface.triangles[i];
-      held[i] = in_group.count(corners_key({corner(surface.vertices, t, 0), corner(surface.vertices, t, 1), corner(surface.vertices, t, 2)})) ? 1 : 0;
+      const auto& t = surface.body.triangles()[i];
+      held[i] = in_group.count(corners_key({corner(surface.body.vertices(), t, 0), corner(surface.body.vertices(), t, 1), corner(surface.body.vertices(), t, 2)})) ? 1 : 0;
     }
     described = "the physical group '" + rule.msh_group + "'";
   } else if (!rule.triangles_path.empty()) {
@@ -283,10 +204,10 @@ RimCircle rim_circle(const Surface& surface, const Eigen::Vector3d& contact, con
     const double phi = 2 * pi * k / 32;
     const Eigen::Vector3d origin = contact + a * (std::cos(phi) * e1 + std::sin(phi) * e2);
     double best = std::numeric_limits<double>::infinity();
-    for (const auto& t : surface.triangles) {
+    for (const auto& t : surface.body.triangles()) {
       // Line origin + s axis against the triangle (Möller–Trumbore, any s).
-      const Eigen::Vector3d p0 = corner(surface.vertices, t, 0), e_a = corner(surface.vertices, t, 1) - p0,
-                            e_b = corner(surface.vertices, t, 2) - p0;
+      const Eigen::Vector3d p0 = corner(surface.body.vertices(), t, 0), e_a = corner(surface.body.vertices(), t, 1) - p0,
+                            e_b = corner(surface.body.vertices(), t, 2) - p0;
       const Eigen::Vector3d h = axis.cross(e_b);
       const double det = e_a.dot(h);
       if (std::abs(det) < 1e-300) continue;
@@ -344,28 +265,27 @@ void OrganBody::validate() const {
                                 " rules (plane, msh_group, triangles_path): set exactly one");
 }
 
-OrganContactSite organ_contact_site(const OrganBody& organ) {
-  organ.validate();
-  const Surface surface = read_valid_surface(organ);
-  const Eigen::Vector3d given = vec(organ.contact_point_m);
+namespace {
+
+/// The contact site on an already read surface: its closest point to the given one, with the
+/// outward pseudo-normal there (the face's inside a face, averaged on an edge or at a corner).
+OrganContactSite contact_site_on(const Surface& surface, const OrganBody& organ) {
+  const geometry::SurfaceProjection nearest = surface.body.project(vec(organ.contact_point_m));
   OrganContactSite site;
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& t : surface.triangles) {
-    const Eigen::Vector3d q = geometry::closest_on_triangle(given, corner(surface.vertices, t, 0), corner(surface.vertices, t, 1),
-                                                           corner(surface.vertices, t, 2));
-    const double d = (q - given).norm();
-    if (d >= best) continue;
-    best = d;
-    site.point_m = arr(q);
-    site.outward_normal = arr((corner(surface.vertices, t, 1) - corner(surface.vertices, t, 0))
-                                  .cross(corner(surface.vertices, t, 2) - corner(surface.vertices, t, 0))
-                                  .normalized());
-  }
+  site.point_m = arr(nearest.point);
+  site.outward_normal = arr(nearest.normal.normalized());
   const Eigen::Vector3d axis = vec(organ.tool_axis);
-  site.tool_axis = axis.norm() > 0 ? arr(axis.normalized()) : arr(-vec(site.outward_normal));
-  site.distance_to_given_point_m = best;
+  site.tool_axis = axis.norm() > 0 ? arr(axis.normalized()) : arr(-nearest.normal.normalized());
+  site.distance_to_given_point_m = nearest.distance_m;
   site.bounding_box_diagonal_m = surface.diagonal_m;
   return site;
+}
+
+}  // namespace
+
+OrganContactSite organ_contact_site(const OrganBody& organ) {
+  organ.validate();
+  return contact_site_on(read_valid_surface(organ), organ);
 }
 
 MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string& msh_path) {
@@ -375,7 +295,7 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
   internal::require_writable(msh_path);
   const Surface input = read_valid_surface(organ);
   const std::vector<char> input_held = attached_triangles(organ, input);
-  const OrganContactSite site = organ_contact_site(organ);
+  const OrganContactSite site = contact_site_on(input, organ);
   const Eigen::Vector3d contact = vec(site.point_m), axis = vec(site.tool_axis);
   const double a = p.tool_radius_m;
   if (site.distance_to_given_point_m > a)
@@ -410,18 +330,18 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
     gmsh::model::mesh::setSizeCallback([&size_at](int, int, double x, double y, double z) { return size_at(x, y, z); });
 
     const int surface_tag = gmsh::model::addDiscreteEntity(2);
-    std::vector<std::size_t> node_tags(input.vertices.size());
+    std::vector<std::size_t> node_tags(input.body.vertices().size());
     std::vector<double> coordinates;
-    coordinates.reserve(3 * input.vertices.size());
-    for (std::size_t v = 0; v < input.vertices.size(); ++v) {
+    coordinates.reserve(3 * input.body.vertices().size());
+    for (std::size_t v = 0; v < input.body.vertices().size(); ++v) {
       node_tags[v] = v + 1;
-      coordinates.insert(coordinates.end(), {input.vertices[v].x(), input.vertices[v].y(), input.vertices[v].z()});
+      coordinates.insert(coordinates.end(), {input.body.vertices()[v].x(), input.body.vertices()[v].y(), input.body.vertices()[v].z()});
     }
     gmsh::model::mesh::addNodes(2, surface_tag, node_tags, coordinates);
     std::vector<std::size_t> element_tags, element_nodes;
-    for (std::size_t i = 0; i < input.triangles.size(); ++i) {
+    for (std::size_t i = 0; i < input.body.triangles().size(); ++i) {
       element_tags.push_back(i + 1);
-      for (int k = 0; k < 3; ++k) element_nodes.push_back(static_cast<std::size_t>(input.triangles[i][k]) + 1);
+      for (int k = 0; k < 3; ++k) element_nodes.push_back(static_cast<std::size_t>(input.body.triangles()[i][k]) + 1);
     }
     gmsh::model::mesh::addElementsByType(surface_tag, 2, element_tags, element_nodes);
     gmsh::model::mesh::classifySurfaces(organ.feature_angle_rad, true, true, pi);
@@ -440,13 +360,12 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
   tool.axis = axis;
   tool.radius_m = a;
   const ImprintedSurface imprinted = imprint_tool_patch(vertices, triangles, tool);
-  const TriangleGrid grid(input.vertices, input.triangles);
   std::vector<int> group(imprinted.triangles.size(), boundary_tags::free);
   for (std::size_t i = 0; i < imprinted.triangles.size(); ++i) {
     const Eigen::Vector3i& t = imprinted.triangles[i];
     const Eigen::Vector3d centroid =
         (corner(imprinted.vertices, t, 0) + corner(imprinted.vertices, t, 1) + corner(imprinted.vertices, t, 2)) / 3;
-    const bool held = input_held[grid.nearest(centroid)] != 0;
+    const bool held = input_held[static_cast<std::size_t>(input.body.project(centroid).triangle)] != 0;
     if (imprinted.in_patch[i] && held)
       throw std::invalid_argument("the tool patch at (" + text_of(contact.x()) + ", " + text_of(contact.y()) + ", " + text_of(contact.z()) +
                                   ") m with radius " + text_of(a) + " m touches the organ's attachment: move the contact or the attachment");
@@ -456,7 +375,7 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
   // 5: the volume.
   try {
     gmsh::model::add("organ_volume");
-    std::map<int, std::vector<std::size_t>> group_elements, group_nodes_of_elements;
+    std::map<int, std::vector<std::size_t>> group_nodes_of_elements;
     std::vector<int> owner(imprinted.vertices.size(), 0);
     for (std::size_t i = 0; i < imprinted.triangles.size(); ++i)
       for (int k = 0; k < 3; ++k) {

@@ -162,7 +162,7 @@ TEST_F(OrganBodyMesh, RefusesASurfaceWithAHoleNamingTheDefect) {
   write_surface_mesh(directory_->path("holed.obj"), surface.vertices, holed);
   MeshParameters p = hemisphere();
   p.organ.surface_path = directory_->path("holed.obj");
-  testing::expect_invalid_argument([&] { generate_mesh(p, directory_->path("holed.msh")); }, {"holed.obj", "cannot bound a body"});
+  testing::expect_invalid_argument([&] { generate_mesh(p, directory_->path("holed.msh")); }, {"holed.obj", "not usable as an organ body", "not closed"});
 }
 
 }  // namespace

@@ -69,36 +69,21 @@ std::vector<SettingField<S>> make_fields() {
                                  Dimension::angle, [](auto& s) -> auto& { return s.geometry.contact_polar_angle_rad; }));
 
   // A user's organ (benchmark = "organ"): its surface, the contact and the attachment.
-  const auto organ_vector = [](FieldNames n, Dimension dimension, auto get) {
-    const std::string key = n.key;
-    return SettingField<S>{n.section, n.key, n.params_key, n.unit, n.doc,
-                           [get, key, dimension](ConfigTable& t, S& s) { get(s) = t.vector3(key, dimension, get(s)); },
-                           [get](const S& s) {
-                             const auto& v = get(s);
-                             return nlohmann::json{v[0], v[1], v[2]};
-                           }};
-  };
-  const auto organ_file = [](FieldNames n, auto get) {
-    const std::string key = n.key;
-    return SettingField<S>{n.section, n.key, n.params_key, n.unit, n.doc,
-                           [get, key](ConfigTable& t, S& s) { get(s) = t.file_path(key, get(s)); },
-                           [get](const S& s) { return nlohmann::json(get(s)); }};
-  };
-  f.push_back(organ_file({"organ", "surface", "", "closed surface file (.msh, .obj, .stl, .vtk, .vtp), relative to this file"},
+  f.push_back(field::file<S>({"organ", "surface", "", "closed surface file (.msh, .obj, .stl, .vtk, .vtp), relative to this file"},
                          [](auto& s) -> auto& { return s.geometry.organ.surface_path; }));
   f.push_back(real({"organ", "unit_scale", "m per file unit", "1e-3 for a file in millimetres"},
                    [](auto& s) -> auto& { return s.geometry.organ.unit_scale; }));
-  f.push_back(organ_vector({"organ", "contact_point", "m", "the patch is centred at the surface point nearest to this"},
+  f.push_back(field::vector3<S>({"organ", "contact_point", "m", "the patch is centred at the surface point nearest to this"},
                            Dimension::length, [](auto& s) -> auto& { return s.geometry.organ.contact_point_m; }));
-  f.push_back(organ_vector({"organ", "tool_axis", "", "tool axis into the organ ([0, 0, 0]: the inward normal)"},
+  f.push_back(field::vector3<S>({"organ", "tool_axis", "", "tool axis into the organ ([0, 0, 0]: the inward normal)"},
                            Dimension::dimensionless, [](auto& s) -> auto& { return s.geometry.organ.tool_axis; }));
-  f.push_back(organ_vector({"organ", "attachment_plane_point", "m", "held: triangles below the plane through this point"},
+  f.push_back(field::vector3<S>({"organ", "attachment_plane_point", "m", "held: triangles below the plane through this point"},
                            Dimension::length, [](auto& s) -> auto& { return s.geometry.organ.attachment.plane_point_m; }));
-  f.push_back(organ_vector({"organ", "attachment_plane_normal", "", "the plane's normal (\"below\": against it; [0, 0, 0]: no plane)"},
+  f.push_back(field::vector3<S>({"organ", "attachment_plane_normal", "", "the plane's normal (\"below\": against it; [0, 0, 0]: no plane)"},
                            Dimension::dimensionless, [](auto& s) -> auto& { return s.geometry.organ.attachment.plane_normal; }));
   f.push_back(field::text<S>({"organ", "attachment_group", "", "held: this physical group of a .msh surface"},
                              [](auto& s) -> auto& { return s.geometry.organ.attachment.msh_group; }));
-  f.push_back(organ_file({"organ", "attachment_triangles", "", "held: the triangle numbers (from 0) listed in this file"},
+  f.push_back(field::file<S>({"organ", "attachment_triangles", "", "held: the triangle numbers (from 0) listed in this file"},
                          [](auto& s) -> auto& { return s.geometry.organ.attachment.triangles_path; }));
   f.push_back(field::text<S>({"organ", "generate", "", "no surface file: generate this organ (hemisphere of radius body_radius, or stomach)"},
                              [](auto& s) -> auto& { return s.generated_organ; }));

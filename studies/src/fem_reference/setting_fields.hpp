@@ -130,6 +130,27 @@ SettingField<Settings> text(FieldNames n, Get get) {
           [get](const Settings& s) { return nlohmann::json(get(s)); }};
 }
 
+/// A file that must exist; a relative name is taken from the config file's folder.
+template <class Settings, class Get>
+SettingField<Settings> file(FieldNames n, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key](ConfigTable& t, Settings& s) { get(s) = t.file_path(key, get(s)); },
+          [get](const Settings& s) { return nlohmann::json(get(s)); }};
+}
+
+/// Three numbers (or quantity strings) of one dimension, held as std::array<double, 3>.
+template <class Settings, class Get>
+SettingField<Settings> vector3(FieldNames n, Dimension dimension, Get get) {
+  const std::string key = n.key;
+  return {n.section, n.key, n.params_key, n.unit, n.doc,
+          [get, key, dimension](ConfigTable& t, Settings& s) { get(s) = t.vector3(key, dimension, get(s)); },
+          [get](const Settings& s) {
+            const auto& v = get(s);
+            return nlohmann::json{v[0], v[1], v[2]};
+          }};
+}
+
 /// A random seed: an integer >= 0.
 template <class Settings, class Get>
 SettingField<Settings> seed(FieldNames n, Get get) {

@@ -24,9 +24,10 @@
 
 namespace touchstone::meshes {
 
-/// The organ's contact: the surface point closest to organ.contact_point_m, the outward normal of
-/// its triangle, and the tool axis used (organ.tool_axis, or the inward normal). Reads and
-/// validates the surface; throws std::invalid_argument naming the file and the defect.
+/// The organ's contact: the surface point closest to organ.contact_point_m, the outward normal
+/// there (the triangle's inside a face; averaged over the neighbours on an edge or a corner), and
+/// the tool axis used (organ.tool_axis, or the inward normal). Reads and validates the surface;
+/// throws std::invalid_argument naming the file and the defect.
 struct OrganContactSite {
   std::array<double, 3> point_m{{0.0, 0.0, 0.0}};
   std::array<double, 3> outward_normal{{0.0, 0.0, 1.0}};
