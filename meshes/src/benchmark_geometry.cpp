@@ -2,6 +2,8 @@
 // and the test box (one file: the bodies share the patch-rim circle, the size law and the
 // physical groups that the FEM and the MFS rely on).
 #include "touchstone/meshes/benchmark_geometry.hpp"
+
+#include "text_of.hpp"
 #include "gmsh_session.hpp"
 #include "touchstone/meshes/organ_body_mesh.hpp"
 
@@ -37,11 +39,7 @@ constexpr int max_refinement = 6;
 // ---------------------------------------------------------------------------------------------
 // Validation helpers: every message names the field as "MeshParameters.<field> = <value>".
 
-std::string text_of(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
+using internal::text_of;
 
 [[noreturn]] void reject(const char* field, double value, const std::string& requirement) {
   throw std::invalid_argument("MeshParameters." + std::string(field) + " = " + text_of(value) +
@@ -773,9 +771,17 @@ void MeshParameters::validate() const {
     require_positive("size_growth", size_growth);
     if (!(size_exponent >= 0.25 && size_exponent <= 1.0)) reject("size_exponent", size_exponent, "must be in [0.25, 1]");
     if (!(power_grading_extent >= 1.0)) reject("power_grading_extent", power_grading_extent, "must be >= 1");
-    if (edge_size_m > tool_radius_m / 2) reject("edge_size_m", edge_size_m, "must be <= tool_radius_m / 2 = " + text_of(tool_radius_m / 2));
+    // The size at the patch rim, or on the cut sphere of an exterior mesh: small enough to resolve it.
+    if (!exterior_of_local_ball && edge_size_m > tool_radius_m / 2)
+      reject("edge_size_m", edge_size_m, "must be <= tool_radius_m / 2 = " + text_of(tool_radius_m / 2));
+    if (exterior_of_local_ball && edge_size_m > local_radius_m / 2)
+      reject("edge_size_m", edge_size_m, "must be <= local_radius_m / 2 = " + text_of(local_radius_m / 2) + " (the size on the cut sphere)");
     if (max_size_m < edge_size_m) reject("max_size_m", max_size_m, "must be >= edge_size_m = " + text_of(edge_size_m));
-    if (exterior_of_local_ball) throw std::invalid_argument("MeshParameters.exterior_of_local_ball = true needs benchmark B1, B2 or B5, not organ");
+    if (exterior_of_local_ball) {
+      require_positive("local_radius_m", local_radius_m);
+      if (local_radius_m <= tool_radius_m)
+        reject("local_radius_m", local_radius_m, "must be > tool_radius_m = " + text_of(tool_radius_m) + " (the patch lies inside the ball)");
+    }
     return;
   }
 

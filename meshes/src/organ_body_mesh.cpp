@@ -2,8 +2,10 @@
 // header for the steps).
 #include "touchstone/meshes/organ_body_mesh.hpp"
 
+#include "text_of.hpp"
 #include "gmsh_session.hpp"
 #include "touchstone/geometry/closest_point_on_triangle.hpp"
+#include "touchstone/meshes/local_ball_cut.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/meshes/tool_patch_imprint.hpp"
 
@@ -15,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -31,11 +34,7 @@ namespace {
 
 constexpr double pi = 3.14159265358979323846;
 
-std::string text_of(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
+using internal::text_of;
 
 Eigen::Vector3d vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 std::array<double, 3> arr(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
@@ -288,39 +287,49 @@ OrganContactSite organ_contact_site(const OrganBody& organ) {
   return contact_site_on(read_valid_surface(organ), organ);
 }
 
-MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string& msh_path) {
-  p.validate();
+std::array<double, 3> organ_rim_centre(const OrganBody& organ, double tool_radius_m) {
+  organ.validate();
+  const Surface surface = read_valid_surface(organ);
+  const OrganContactSite site = contact_site_on(surface, organ);
+  return arr(rim_circle(surface, vec(site.point_m), vec(site.tool_axis), tool_radius_m).centre);
+}
+
+namespace {
+
+using ErrorFactory = std::function<std::runtime_error(const std::string&)>;
+using SizeLaw = std::function<double(double, double, double)>;
+
+/// The read surface, what its attachment holds and the contact, checked against the tool size.
+struct OrganInput {
+  Surface surface;
+  std::vector<char> held;
+  OrganContactSite site;
+  Eigen::Vector3d contact, axis;
+};
+
+OrganInput read_organ_input(const MeshParameters& p) {
   const OrganBody& organ = p.organ;
-  const auto start = std::chrono::steady_clock::now();
-  internal::require_writable(msh_path);
-  const Surface input = read_valid_surface(organ);
-  const std::vector<char> input_held = attached_triangles(organ, input);
-  const OrganContactSite site = contact_site_on(input, organ);
-  const Eigen::Vector3d contact = vec(site.point_m), axis = vec(site.tool_axis);
+  OrganInput in{read_valid_surface(organ), {}, {}, {}, {}};
+  in.held = attached_triangles(organ, in.surface);
+  in.site = contact_site_on(in.surface, organ);
+  in.contact = vec(in.site.point_m);
+  in.axis = vec(in.site.tool_axis);
   const double a = p.tool_radius_m;
-  if (site.distance_to_given_point_m > a)
+  if (in.site.distance_to_given_point_m > a)
     throw std::invalid_argument("organ contact_point (" + text_of(organ.contact_point_m[0]) + ", " + text_of(organ.contact_point_m[1]) + ", " +
-                                text_of(organ.contact_point_m[2]) + ") m lies " + text_of(site.distance_to_given_point_m) +
+                                text_of(organ.contact_point_m[2]) + ") m lies " + text_of(in.site.distance_to_given_point_m) +
                                 " m off the surface of '" + organ.surface_path + "', farther than the tool radius " + text_of(a) +
                                 " m: is it in the file's units, or on another organ?");
-  if (a > 0.25 * input.diagonal_m)
+  if (a > 0.25 * in.surface.diagonal_m)
     throw std::invalid_argument("MeshParameters.tool_radius_m = " + text_of(a) + " is too large for the organ '" + organ.surface_path +
-                                "' (bounding-box diagonal " + text_of(input.diagonal_m) + " m); is the unit scale right?");
-  const RimCircle rim = rim_circle(input, contact, axis, a);
-  const auto size_at = [&p, &rim](double x, double y, double z) { return graded_size_m(p, rim.distance({x, y, z})); };
+                                "' (bounding-box diagonal " + text_of(in.surface.diagonal_m) + " m); is the unit scale right?");
+  return in;
+}
 
-  const auto fail = [&](const std::string& what) {
-    return std::runtime_error("generate_organ_body_mesh for '" + organ.surface_path + "' (tool radius " + text_of(a) +
-                              " m, edge size " + text_of(p.edge_size_m) + " m, refinement " + std::to_string(p.refinement) +
-                              "), path '" + msh_path + "': " + what);
-  };
-
-  // 1–2: the surface remeshed by gmsh on its own reparametrised pieces.
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<Eigen::Vector3i> triangles;
-  MeshSummary summary;
-  summary.path = msh_path;
-  internal::GmshSession session("organ_body");
+/// Step 1–2: gmsh remeshes the surface on its reparametrised pieces under the size law.
+void remesh_surface(const Surface& input, const MeshParameters& p, const SizeLaw& size_at, const ErrorFactory& fail,
+                    std::vector<Eigen::Vector3d>& vertices, std::vector<Eigen::Vector3i>& triangles) {
+  internal::GmshSession session("organ_surface");
   try {
     gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
     gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
@@ -344,7 +353,7 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
       for (int k = 0; k < 3; ++k) element_nodes.push_back(static_cast<std::size_t>(input.body.triangles()[i][k]) + 1);
     }
     gmsh::model::mesh::addElementsByType(surface_tag, 2, element_tags, element_nodes);
-    gmsh::model::mesh::classifySurfaces(organ.feature_angle_rad, true, true, pi);
+    gmsh::model::mesh::classifySurfaces(p.organ.feature_angle_rad, true, true, pi);
     gmsh::model::mesh::createGeometry();
     gmsh::model::mesh::generate(2);
     gmsh_triangles(vertices, triangles);
@@ -353,39 +362,42 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
   }
   if (triangles.empty()) throw fail("gmsh remeshed the surface into no triangles");
   orient_outward(vertices, triangles);
+}
 
-  // 3–4: the patch cut in; the groups.
-  ToolPatchCylinder tool;
-  tool.contact_point_m = contact;
-  tool.axis = axis;
-  tool.radius_m = a;
-  const ImprintedSurface imprinted = imprint_tool_patch(vertices, triangles, tool);
-  std::vector<int> group(imprinted.triangles.size(), boundary_tags::free);
-  for (std::size_t i = 0; i < imprinted.triangles.size(); ++i) {
-    const Eigen::Vector3i& t = imprinted.triangles[i];
-    const Eigen::Vector3d centroid =
-        (corner(imprinted.vertices, t, 0) + corner(imprinted.vertices, t, 1) + corner(imprinted.vertices, t, 2)) / 3;
-    const bool held = input_held[static_cast<std::size_t>(input.body.project(centroid).triangle)] != 0;
-    if (imprinted.in_patch[i] && held)
-      throw std::invalid_argument("the tool patch at (" + text_of(contact.x()) + ", " + text_of(contact.y()) + ", " + text_of(contact.z()) +
-                                  ") m with radius " + text_of(a) + " m touches the organ's attachment: move the contact or the attachment");
-    group[i] = imprinted.in_patch[i] ? boundary_tags::tool_patch : held ? boundary_tags::base : boundary_tags::free;
+std::string group_name(int tag) {
+  switch (tag) {
+    case boundary_tags::base: return "base";
+    case boundary_tags::tool_patch: return "tool_patch";
+    case boundary_tags::cut: return "cut";
+    default: return "free";
   }
+}
 
-  // 5: the volume.
+/// Step 5: gmsh fills the closed, grouped surface with tetrahedra under the size law and writes
+/// MSH 2.2 with the benchmark tags.
+MeshSummary mesh_volume(const std::vector<Eigen::Vector3d>& vertices, const std::vector<Eigen::Vector3i>& triangles,
+                        const std::vector<int>& group, const MeshParameters& p, const SizeLaw& size_at, const ErrorFactory& fail,
+                        const std::string& msh_path) {
+  MeshSummary summary;
+  summary.path = msh_path;
+  internal::GmshSession session("organ_volume");
   try {
-    gmsh::model::add("organ_volume");
+    gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
+    gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
+    gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
+    gmsh::option::setNumber("Mesh.MeshSizeMax", p.max_size_m / std::ldexp(1.0, p.refinement));
+    gmsh::model::mesh::setSizeCallback([&size_at](int, int, double x, double y, double z) { return size_at(x, y, z); });
     std::map<int, std::vector<std::size_t>> group_nodes_of_elements;
-    std::vector<int> owner(imprinted.vertices.size(), 0);
-    for (std::size_t i = 0; i < imprinted.triangles.size(); ++i)
+    std::vector<int> owner(vertices.size(), 0);
+    for (std::size_t i = 0; i < triangles.size(); ++i)
       for (int k = 0; k < 3; ++k) {
-        const auto v = static_cast<std::size_t>(imprinted.triangles[i][k]);
+        const auto v = static_cast<std::size_t>(triangles[i][k]);
         if (owner[v] == 0) owner[v] = group[i];
         group_nodes_of_elements[group[i]].push_back(v + 1);
       }
     std::vector<int> surfaces;
     std::size_t next_element = 1;
-    for (const int tag : {boundary_tags::base, boundary_tags::tool_patch, boundary_tags::free}) {
+    for (const int tag : {boundary_tags::base, boundary_tags::tool_patch, boundary_tags::free, boundary_tags::cut}) {
       if (!group_nodes_of_elements.count(tag)) continue;
       gmsh::model::addDiscreteEntity(2, tag);
       surfaces.push_back(tag);
@@ -393,10 +405,10 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
     for (const int tag : surfaces) {
       std::vector<std::size_t> nodes;
       std::vector<double> coordinates;
-      for (std::size_t v = 0; v < imprinted.vertices.size(); ++v) {
+      for (std::size_t v = 0; v < vertices.size(); ++v) {
         if (owner[v] != tag) continue;
         nodes.push_back(v + 1);
-        coordinates.insert(coordinates.end(), {imprinted.vertices[v].x(), imprinted.vertices[v].y(), imprinted.vertices[v].z()});
+        coordinates.insert(coordinates.end(), {vertices[v].x(), vertices[v].y(), vertices[v].z()});
       }
       gmsh::model::mesh::addNodes(2, tag, nodes, coordinates);
     }
@@ -409,9 +421,7 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
     const int loop = gmsh::model::geo::addSurfaceLoop(surfaces);
     const int volume = gmsh::model::geo::addVolume({loop});
     gmsh::model::geo::synchronize();
-    for (const int tag : surfaces)
-      gmsh::model::setPhysicalName(2, gmsh::model::addPhysicalGroup(2, {tag}, tag),
-                                   tag == boundary_tags::base ? "base" : tag == boundary_tags::tool_patch ? "tool_patch" : "free");
+    for (const int tag : surfaces) gmsh::model::setPhysicalName(2, gmsh::model::addPhysicalGroup(2, {tag}, tag), group_name(tag));
     gmsh::model::setPhysicalName(3, gmsh::model::addPhysicalGroup(3, {volume}, boundary_tags::tissue), "tissue");
     gmsh::option::setNumber("Mesh.Algorithm3D", 1);
     gmsh::option::setNumber("Mesh.Optimize", 1);
@@ -424,8 +434,10 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
     std::vector<std::size_t> tags, nodes;
     gmsh::model::mesh::getElementsByType(4, tags, nodes, volume);
     summary.tetrahedron_count = tags.size();
-    gmsh::model::mesh::getElementsByType(2, tags, nodes, boundary_tags::tool_patch);
-    summary.patch_triangle_count = tags.size();
+    if (group_nodes_of_elements.count(boundary_tags::tool_patch)) {
+      gmsh::model::mesh::getElementsByType(2, tags, nodes, boundary_tags::tool_patch);
+      summary.patch_triangle_count = tags.size();
+    }
     std::vector<double> coordinates, parametric;
     gmsh::model::mesh::getNodes(tags, coordinates, parametric, -1, -1, false, false);
     summary.node_count = tags.size();
@@ -434,6 +446,93 @@ MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string&
   } catch (const std::string& message) {
     throw fail("gmsh could not mesh the volume: " + message);
   }
+  return summary;
+}
+
+/// The organ minus ball(c, L), c the contact: the exterior body of the organ atlas, graded toward
+/// the cut sphere like the benchmarks' exterior meshes.
+MeshSummary generate_organ_exterior_mesh(const MeshParameters& p, const std::string& msh_path) {
+  const auto start = std::chrono::steady_clock::now();
+  internal::require_writable(msh_path);
+  const OrganInput in = read_organ_input(p);
+  const double length = p.local_radius_m;
+  if (length > 0.5 * in.surface.diagonal_m)
+    throw std::invalid_argument("MeshParameters.local_radius_m = " + text_of(length) + " is too large for the organ '" + p.organ.surface_path +
+                                "' (bounding-box diagonal " + text_of(in.surface.diagonal_m) + " m)");
+  const Eigen::Vector3d centre = in.contact;
+  const SizeLaw size_at = [&p, centre, length](double x, double y, double z) {
+    return graded_size_m(p, std::max((Eigen::Vector3d(x, y, z) - centre).norm() - length, 0.0));
+  };
+  const ErrorFactory fail = [&](const std::string& what) {
+    return std::runtime_error("generate_organ_body_mesh (exterior of the local ball) for '" + p.organ.surface_path + "' (local radius " +
+                              text_of(length) + " m, edge size " + text_of(p.edge_size_m) + " m, refinement " +
+                              std::to_string(p.refinement) + "), path '" + msh_path + "': " + what);
+  };
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;
+  remesh_surface(in.surface, p, size_at, fail, vertices, triangles);
+
+  LocalBall ball;
+  ball.centre_m = centre;
+  ball.radius_m = length;
+  ball.outward_direction = vec(in.site.outward_normal);
+  ball.cap_edge_m = graded_size_m(p, 0);
+  const BallCutSurface cut = cut_out_local_ball(vertices, triangles, ball);
+  std::vector<int> group(cut.triangles.size(), boundary_tags::free);
+  for (std::size_t i = 0; i < cut.triangles.size(); ++i) {
+    if (cut.on_cap[i]) {
+      group[i] = boundary_tags::cut;
+      continue;
+    }
+    const Eigen::Vector3i& t = cut.triangles[i];
+    const Eigen::Vector3d centroid = (corner(cut.vertices, t, 0) + corner(cut.vertices, t, 1) + corner(cut.vertices, t, 2)) / 3;
+    if (in.held[static_cast<std::size_t>(in.surface.body.project(centroid).triangle)]) group[i] = boundary_tags::base;
+  }
+  MeshSummary summary = mesh_volume(cut.vertices, cut.triangles, group, p, size_at, fail, msh_path);
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace
+
+MeshSummary generate_organ_body_mesh(const MeshParameters& p, const std::string& msh_path) {
+  p.validate();
+  if (p.exterior_of_local_ball) return generate_organ_exterior_mesh(p, msh_path);
+  const OrganBody& organ = p.organ;
+  const auto start = std::chrono::steady_clock::now();
+  internal::require_writable(msh_path);
+  const OrganInput in = read_organ_input(p);
+  const Eigen::Vector3d contact = in.contact, axis = in.axis;
+  const double a = p.tool_radius_m;
+  const RimCircle rim = rim_circle(in.surface, contact, axis, a);
+  const SizeLaw size_at = [&p, &rim](double x, double y, double z) { return graded_size_m(p, rim.distance({x, y, z})); };
+  const ErrorFactory fail = [&](const std::string& what) {
+    return std::runtime_error("generate_organ_body_mesh for '" + organ.surface_path + "' (tool radius " + text_of(a) +
+                              " m, edge size " + text_of(p.edge_size_m) + " m, refinement " + std::to_string(p.refinement) +
+                              "), path '" + msh_path + "': " + what);
+  };
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;
+  remesh_surface(in.surface, p, size_at, fail, vertices, triangles);
+
+  // 3–4: the patch cut in; the groups.
+  ToolPatchCylinder tool;
+  tool.contact_point_m = contact;
+  tool.axis = axis;
+  tool.radius_m = a;
+  const ImprintedSurface imprinted = imprint_tool_patch(vertices, triangles, tool);
+  std::vector<int> group(imprinted.triangles.size(), boundary_tags::free);
+  for (std::size_t i = 0; i < imprinted.triangles.size(); ++i) {
+    const Eigen::Vector3i& t = imprinted.triangles[i];
+    const Eigen::Vector3d centroid =
+        (corner(imprinted.vertices, t, 0) + corner(imprinted.vertices, t, 1) + corner(imprinted.vertices, t, 2)) / 3;
+    const bool held = in.held[static_cast<std::size_t>(in.surface.body.project(centroid).triangle)] != 0;
+    if (imprinted.in_patch[i] && held)
+      throw std::invalid_argument("the tool patch at (" + text_of(contact.x()) + ", " + text_of(contact.y()) + ", " + text_of(contact.z()) +
+                                  ") m with radius " + text_of(a) + " m touches the organ's attachment: move the contact or the attachment");
+    group[i] = imprinted.in_patch[i] ? boundary_tags::tool_patch : held ? boundary_tags::base : boundary_tags::free;
+  }
+  MeshSummary summary = mesh_volume(imprinted.vertices, imprinted.triangles, group, p, size_at, fail, msh_path);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -1,5 +1,6 @@
 #include "touchstone/meshes/organ_geometry.hpp"
 
+#include "text_of.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "gmsh_session.hpp"
@@ -32,12 +33,7 @@ using Eigen::Vector3i;
 
 constexpr double pi = 3.14159265358979323846;
 
-std::string text_of(double value) {
-  std::ostringstream text;
-  text.precision(6);
-  text << value;
-  return text.str();
-}
+using internal::text_of;
 
 [[noreturn]] void reject(const char* field, double value, const std::string& requirement) {
   throw std::invalid_argument("OrganParameters." + std::string(field) + " = " + text_of(value) + " " + requirement);

@@ -2,6 +2,7 @@
 // welding, unit scaling, triangulation of polygons and the error naming by file and element).
 #include "touchstone/meshes/surface_mesh_io.hpp"
 
+#include "text_of.hpp"
 #include "touchstone/meshes/msh_reader.hpp"
 
 #include <Eigen/Geometry>
@@ -53,11 +54,7 @@ using Eigen::Vector3d;
 using Eigen::Vector3i;
 using geometry::SurfaceLabels;
 
-std::string text_of(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
+using internal::text_of;
 
 std::string lower_case(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),

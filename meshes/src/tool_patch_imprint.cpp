@@ -1,6 +1,8 @@
 // Cutting the tool patch into a triangle surface along the rim curve (see the header).
 #include "touchstone/meshes/tool_patch_imprint.hpp"
 
+#include "text_of.hpp"
+#include "level_set_split.hpp"
 #include "touchstone/geometry/closest_point_on_triangle.hpp"
 
 #include <Eigen/Geometry>
@@ -16,21 +18,15 @@
 #include <string>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 namespace touchstone::meshes {
 
 namespace {
 
-std::string text_of(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
+using internal::text_of;
 
-std::uint64_t edge_key(int a, int b) {
-  const auto lo = static_cast<std::uint64_t>(std::min(a, b)), hi = static_cast<std::uint64_t>(std::max(a, b));
-  return (lo << 32) | hi;
-}
+using internal::edge_key;
 
 /// The cylinder's level set f(x) = |P⊥(x − c)| − a: negative inside the patch's cylinder.
 class Cylinder {
@@ -135,103 +131,15 @@ ImprintedSurface imprint_tool_patch(const std::vector<Eigen::Vector3d>& vertices
         if (!in_sheet[j] && touches_inside(triangles[j])) in_sheet[j] = 1, stack.push_back(j);
   }
 
+  internal::LevelSetSplit split = internal::split_along_level_set(vertices, triangles, in_sheet, cylinder, tool.snap_fraction);
   ImprintedSurface out;
-  out.vertices = vertices;
-  std::vector<char> on_rim(vertices.size(), 0);
-
-  // Snap sheet vertices close to the rim onto it, measured against their shortest sheet edge.
-  std::vector<double> shortest_edge(vertices.size(), std::numeric_limits<double>::infinity());
-  for (std::size_t i = 0; i < triangles.size(); ++i) {
-    if (!in_sheet[i]) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int p = triangles[i][k], q = triangles[i][(k + 1) % 3];
-      const double length = (vertices[static_cast<std::size_t>(p)] - vertices[static_cast<std::size_t>(q)]).norm();
-      shortest_edge[static_cast<std::size_t>(p)] = std::min(shortest_edge[static_cast<std::size_t>(p)], length);
-      shortest_edge[static_cast<std::size_t>(q)] = std::min(shortest_edge[static_cast<std::size_t>(q)], length);
-    }
-  }
-  for (std::size_t v = 0; v < vertices.size(); ++v) {
-    if (!std::isfinite(shortest_edge[v]) || !(std::abs(level[v]) <= tool.snap_fraction * shortest_edge[v])) continue;
-    out.vertices[v] = cylinder.onto(vertices[v]);
-    level[v] = 0;
-    on_rim[v] = 1;
-    ++out.snapped_vertex_count;
-  }
-
-  // Split the sheet's triangles along the rim; one new vertex per crossed edge.
-  std::unordered_map<std::uint64_t, int> crossing_vertex;
-  const auto crossing = [&](int p, int q) {
-    const auto [it, inserted] = crossing_vertex.try_emplace(edge_key(p, q), static_cast<int>(out.vertices.size()));
-    if (inserted) {
-      out.vertices.push_back(cylinder.crossing(out.vertices[static_cast<std::size_t>(p)], out.vertices[static_cast<std::size_t>(q)]));
-      on_rim.push_back(1);
-    }
-    return it->second;
-  };
-  const auto sign_of = [&](int v) {
-    const double f = static_cast<std::size_t>(v) < level.size() ? level[static_cast<std::size_t>(v)] : 0.0;
-    return on_rim[static_cast<std::size_t>(v)] ? 0 : (f < 0 ? -1 : 1);
-  };
-  const auto add_piece = [&](int p, int q, int r, std::size_t source, bool inside) {
-    out.triangles.emplace_back(p, q, r);
-    out.in_patch.push_back(inside ? 1 : 0);
-    out.source_triangle.push_back(source);
-  };
-
-  for (std::size_t i = 0; i < triangles.size(); ++i) {
-    const Eigen::Vector3i& t = triangles[i];
-    if (!in_sheet[i]) {
-      add_piece(t[0], t[1], t[2], i, false);
-      continue;
-    }
-    // The triangle's boundary walked in its own orientation, with the rim points inserted.
-    std::array<int, 6> polygon{};
-    std::size_t size = 0;
-    for (int k = 0; k < 3; ++k) {
-      const int p = t[k], q = t[(k + 1) % 3];
-      polygon[size++] = p;
-      if (sign_of(p) * sign_of(q) < 0) polygon[size++] = crossing(p, q);
-    }
-    std::array<std::size_t, 6> rim_positions{};
-    std::size_t rim_count = 0;
-    int sign_sum = 0;
-    for (std::size_t k = 0; k < size; ++k) {
-      if (sign_of(polygon[k]) == 0) rim_positions[rim_count++] = k;
-      sign_sum += sign_of(polygon[k]);
-    }
-    const bool chord = rim_count == 2 && rim_positions[1] - rim_positions[0] != 1 && rim_positions[1] - rim_positions[0] != size - 1;
-    if (!chord) {
-      // No chord across the triangle: it lies on one side (touching the rim at most along an edge
-      // or a corner).
-      add_piece(t[0], t[1], t[2], i, sign_sum < 0);
-      continue;
-    }
-    ++out.split_triangle_count;
-    // Two sub-polygons (3 or 4 corners, convex) on either side of the chord.
-    for (int side = 0; side < 2; ++side) {
-      std::array<int, 6> piece{};
-      std::size_t corners = 0;
-      const std::size_t from = rim_positions[static_cast<std::size_t>(side)], to = rim_positions[static_cast<std::size_t>(1 - side)];
-      for (std::size_t k = from;; k = (k + 1) % size) {
-        piece[corners++] = polygon[k];
-        if (k == to) break;
-      }
-      const bool inside = sign_of(piece[1]) < 0;
-      if (corners == 3) {
-        add_piece(piece[0], piece[1], piece[2], i, inside);
-      } else {
-        // Split the quadrilateral along its shorter diagonal.
-        const auto at = [&](std::size_t k) -> const Eigen::Vector3d& { return out.vertices[static_cast<std::size_t>(piece[k])]; };
-        if ((at(0) - at(2)).squaredNorm() <= (at(1) - at(3)).squaredNorm()) {
-          add_piece(piece[0], piece[1], piece[2], i, inside);
-          add_piece(piece[0], piece[2], piece[3], i, inside);
-        } else {
-          add_piece(piece[0], piece[1], piece[3], i, inside);
-          add_piece(piece[1], piece[2], piece[3], i, inside);
-        }
-      }
-    }
-  }
+  out.vertices = std::move(split.vertices);
+  out.triangles = std::move(split.triangles);
+  out.in_patch = std::move(split.inside);
+  out.source_triangle = std::move(split.source_triangle);
+  out.snapped_vertex_count = split.snapped_vertex_count;
+  out.split_triangle_count = split.split_triangle_count;
+  const std::vector<char>& on_rim = split.on_curve;
 
   // The patch must be closed by the rim: every patch edge not on the rim is shared by two patch
   // triangles.

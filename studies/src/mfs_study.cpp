@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -191,7 +192,7 @@ class CaseRunner {
  public:
   CaseRunner(const MfsStudy& study, const Organ& organ, const MfsRunOptions& options)
       : study_(study), organ_(organ), options_(options) {
-    if (!study.atlas_path.empty()) atlas_ = mfs::read_organ_atlas(study.atlas_path);
+    if (!study.atlas_path.empty()) atlas_ = std::make_shared<const mfs::OrganAtlas>(mfs::read_organ_atlas(study.atlas_path));
   }
 
   json run(geometry::ContactCondition condition, int node_count) const {
@@ -386,33 +387,11 @@ class CaseRunner {
   }
 
   /// The body-aware exterior from the organ atlas, if one was given.
-  mfs::ExteriorStiffnessSource exterior_source() const {
-    if (!atlas_) return {};
-    return [this](const mfs::ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
-                  Eigen::MatrixXd& stiffness, std::string& why_not) {
-      mfs::OrganAtlasQuery query;
-      query.contact_point_m = contact.point;
-      query.direction = contact.direction;
-      query.tool_radius_m = contact.radius_m;
-      query.local_radius_m = local_radius_m;
-      query.material = material;
-      const mfs::OrganAtlasLookup found = mfs::lookup_exterior_stiffness(*atlas_, query);
-      if (found.status != mfs::OrganAtlasStatus::ok) {
-        why_not = "organ atlas: " + found.message;
-        return false;
-      }
-      if (found.mode_count < modes) {
-        why_not = "organ atlas has the normal mode only; a bonded tool needs all three";
-        return false;
-      }
-      stiffness = found.stiffness_N_per_m.topLeftCorner(modes, modes);
-      return true;
-    };
-  }
+  mfs::ExteriorStiffnessSource exterior_source() const { return mfs::exterior_from_atlas(atlas_); }
 
   const MfsStudy& study_;
   const Organ& organ_;
-  std::optional<mfs::OrganAtlas> atlas_;
+  std::shared_ptr<const mfs::OrganAtlas> atlas_;
   const MfsRunOptions& options_;
 };
 

@@ -3,11 +3,16 @@
 #include "touchstone/studies/fem_reference/reference_study.hpp"
 
 #include "touchstone/fem/richardson.hpp"
+#include "touchstone/meshes/organ_body_mesh.hpp"
+#include "touchstone/meshes/organ_geometry.hpp"
+#include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/version.hpp"
+
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <array>
@@ -58,6 +63,11 @@ std::string combination_name(const std::pair<int, int>& c) {
 
 std::string sample_label(const meshes::MeshParameters& g) {
   if (g.benchmark == meshes::Benchmark::B1) return "top_centre";
+  if (g.benchmark == meshes::Benchmark::Organ) {
+    const auto& p = g.organ.contact_point_m;
+    return "site(" + format_number(std::round(p[0] * 1e7) / 1e4) + "," + format_number(std::round(p[1] * 1e7) / 1e4) + "," +
+           format_number(std::round(p[2] * 1e7) / 1e4) + ")mm";
+  }
   return "theta=" + format_number(std::round(g.contact_polar_angle_rad * 180 / pi * 1e6) / 1e6) + "deg";
 }
 
@@ -65,11 +75,48 @@ std::string sample_label(const meshes::MeshParameters& g) {
 
 std::string to_string(AtlasModes modes) { return modes == AtlasModes::normal ? "normal" : "all"; }
 
+std::vector<std::array<double, 3>> organ_atlas_sites(const OrganAtlasStudy& study) {
+  const meshes::OrganBody& organ = study.geometry.organ;
+  meshes::OrganBody centre_query = organ;
+  centre_query.tool_axis = {0.0, 0.0, 0.0};
+  if (std::isnan(study.region_centre_m[0])) {
+    meshes::SurfaceReadOptions read;
+    read.unit_scale = organ.unit_scale;
+    read.weld_vertices = true;
+    const meshes::SurfaceMesh surface = meshes::read_surface_mesh(organ.surface_path, read);
+    if (surface.vertices.empty()) throw std::invalid_argument("organ surface '" + organ.surface_path + "' has no vertices");
+    const Eigen::Vector3d top = *std::max_element(surface.vertices.begin(), surface.vertices.end(),
+                                                  [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.z() < b.z(); });
+    centre_query.contact_point_m = {top.x(), top.y(), top.z()};
+  } else {
+    centre_query.contact_point_m = study.region_centre_m;
+  }
+  const meshes::OrganContactSite centre = meshes::organ_contact_site(centre_query);
+  const Eigen::Vector3d c = to_eigen(centre.point_m), n = to_eigen(centre.outward_normal);
+  const Eigen::Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+  const double spacing = study.sample_spacing_m > 0 ? study.sample_spacing_m : study.geometry.local_radius_m;
+  const int reach = static_cast<int>(std::ceil(study.region_radius_m / spacing)) + 1;
+  std::vector<std::array<double, 3>> sites;
+  for (int j = -reach; j <= reach; ++j)
+    for (int i = -2 * reach; i <= 2 * reach; ++i) {
+      const Eigen::Vector2d lattice = spacing * Eigen::Vector2d(i + 0.5 * j, std::sqrt(3.0) / 2 * j);
+      if (lattice.norm() > study.region_radius_m * (1 + 1e-12)) continue;
+      const Eigen::Vector3d p = c + lattice.x() * t1 + lattice.y() * t2;
+      sites.push_back({p.x(), p.y(), p.z()});
+    }
+  std::sort(sites.begin(), sites.end(), [&c](const auto& a, const auto& b) {
+    return (to_eigen(a) - c).squaredNorm() < (to_eigen(b) - c).squaredNorm();
+  });
+  return sites;
+}
+
 realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geometry) {
   const meshes::ContactSite site = meshes::contact_site(geometry);
   const Eigen::Vector3d c = to_eigen(site.point_m), n = to_eigen(site.outward_normal);
   Eigen::Vector3d origin = c;
-  if (geometry.benchmark != meshes::Benchmark::B1) {
+  if (geometry.benchmark == meshes::Benchmark::Organ) {
+    origin = to_eigen(meshes::organ_rim_centre(geometry.organ, geometry.tool_radius_m));
+  } else if (geometry.benchmark != meshes::Benchmark::B1) {
     const double r = geometry.body_radius_m, a = geometry.tool_radius_m;
     origin = c - (r - std::sqrt(r * r - a * a)) * n;
   }
@@ -238,13 +285,40 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
 
 void OrganAtlasStudy::validate() const {
   if (name.empty()) throw std::invalid_argument("OrganAtlasStudy.name is empty");
-  if (geometry.benchmark != meshes::Benchmark::B1 && geometry.benchmark != meshes::Benchmark::B2)
+  if (geometry.benchmark != meshes::Benchmark::B1 && geometry.benchmark != meshes::Benchmark::B2 &&
+      geometry.benchmark != meshes::Benchmark::Organ)
     throw std::invalid_argument("OrganAtlasStudy.geometry.benchmark = " + meshes::to_string(geometry.benchmark) +
-                                " must be B1 (the cylinder) or B2 (the hemisphere)");
+                                " must be B1 (the cylinder), B2 (the hemisphere) or organ (a surface)");
   material.validate();
   solver.validate();
+  if (geometry.benchmark == meshes::Benchmark::Organ) {
+    if (generated_organ.empty() == geometry.organ.surface_path.empty())
+      throw std::invalid_argument("OrganAtlasStudy: give exactly one of organ.surface and organ.generate");
+    if (!generated_organ.empty()) {
+      meshes::organ_shape_from_string(generated_organ);  // throws naming the value
+      if (generated_organ_triangles < 100 || generated_organ_triangles > 1000000)
+        throw std::invalid_argument("OrganAtlasStudy.generated_organ_triangles = " + std::to_string(generated_organ_triangles) +
+                                    " must be in [100, 1000000]");
+    }
+    if (!std::isnan(region_centre_m[0]))
+      for (const double x : region_centre_m)
+        if (!std::isfinite(x)) throw std::invalid_argument("OrganAtlasStudy.region_centre_m has a non-finite coordinate");
+    if (!std::isfinite(region_radius_m) || region_radius_m < 0)
+      throw std::invalid_argument("OrganAtlasStudy.region_radius_m = " + format_number(region_radius_m) + " must be >= 0");
+    if (!std::isfinite(sample_spacing_m) || sample_spacing_m < 0)
+      throw std::invalid_argument("OrganAtlasStudy.sample_spacing_m = " + format_number(sample_spacing_m) + " must be >= 0");
+    const double spacing = sample_spacing_m > 0 ? sample_spacing_m : geometry.local_radius_m;
+    if (region_radius_m / spacing > 50)
+      throw std::invalid_argument("OrganAtlasStudy: region_radius_m / sample_spacing_m = " + format_number(region_radius_m / spacing) +
+                                  " asks for thousands of samples (at most 50 spacings across)");
+    meshes::MeshParameters g = geometry;
+    g.exterior_of_local_ball = true;
+    if (g.organ.surface_path.empty()) g.organ.surface_path = "(generated)";
+    g.validate();
+  }
   if (polar_angles_rad.empty()) throw std::invalid_argument("OrganAtlasStudy.polar_angles_rad is empty");
   for (const double theta : polar_angles_rad) {
+    if (geometry.benchmark == meshes::Benchmark::Organ) break;
     meshes::MeshParameters g = geometry;
     g.exterior_of_local_ball = true;
     if (g.benchmark == meshes::Benchmark::B2 && theta != 0) {
@@ -274,7 +348,8 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
   study.name = config.string("study", study.name);
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
-  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2"}, "B2"));
+  g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2", "organ"}, "B2"));
+  const bool organ = g.benchmark == meshes::Benchmark::Organ;
   g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
   g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
   g.local_radius_m = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
@@ -284,8 +359,29 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
       material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
   study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
 
+  if (organ) {
+    // The surface, its units and attachment, as `touchstone fem` reads them; the contact is per sample.
+    ConfigTable surface = config.table("organ", true);
+    meshes::OrganBody& o = g.organ;
+    o.surface_path = surface.file_path("surface", "");
+    o.unit_scale = surface.number("unit_scale", o.unit_scale);
+    o.attachment.plane_point_m = surface.vector3("attachment_plane_point", Dimension::length, o.attachment.plane_point_m);
+    o.attachment.plane_normal = surface.vector3("attachment_plane_normal", Dimension::dimensionless, o.attachment.plane_normal);
+    o.attachment.msh_group = surface.string("attachment_group", "");
+    o.attachment.triangles_path = surface.file_path("attachment_triangles", "");
+    o.feature_angle_rad = surface.quantity("feature_angle", Dimension::angle, o.feature_angle_rad);
+    study.generated_organ = surface.string("generate", "");
+    study.generated_organ_triangles = read_int(surface, "generate_triangles", study.generated_organ_triangles);
+  }
+
   ConfigTable atlas = config.table("atlas");
-  study.polar_angles_rad = atlas.quantity_list("polar_angles", Dimension::angle, study.polar_angles_rad);
+  if (organ) {
+    study.region_centre_m = atlas.vector3("region_centre", Dimension::length, study.region_centre_m);
+    study.region_radius_m = atlas.quantity("region_radius", Dimension::length, study.region_radius_m);
+    study.sample_spacing_m = atlas.quantity("sample_spacing", Dimension::length, study.sample_spacing_m);
+  } else {
+    study.polar_angles_rad = atlas.quantity_list("polar_angles", Dimension::angle, study.polar_angles_rad);
+  }
   study.modes = atlas.choice("modes", {"normal", "all"}, "all") == "normal" ? AtlasModes::normal : AtlasModes::all;
   const int levels = read_int(atlas, "levels", 3);
   if (levels < 1 || levels > 5) throw ConfigError(atlas.where("levels") + ": " + std::to_string(levels) + " must be in [1, 5]");
@@ -311,8 +407,38 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
   return study;
 }
 
-realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, const AtlasRunOptions& options) {
-  study.validate();
+realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, const AtlasRunOptions& options) {
+  given.validate();
+  OrganAtlasStudy study = given;
+  if (!study.generated_organ.empty()) {
+    study.geometry.organ.surface_path =
+        generated_organ_surface(study.generated_organ, study.generated_organ_triangles, study.geometry.body_radius_m,
+                                options.cache_directory.empty() ? options.output_directory : options.cache_directory);
+    study.generated_organ.clear();
+  }
+  const bool on_organ = study.geometry.benchmark == meshes::Benchmark::Organ;
+  // One sample per polar angle (the benchmarks) or per lattice site (an organ).
+  std::vector<meshes::MeshParameters> sample_geometries;
+  std::vector<double> sample_angles;
+  if (on_organ) {
+    for (const auto& site : organ_atlas_sites(study)) {
+      meshes::MeshParameters g = study.geometry;
+      g.organ.contact_point_m = site;
+      g.organ.tool_axis = {0.0, 0.0, 0.0};
+      sample_geometries.push_back(g);
+      sample_angles.push_back(std::numeric_limits<double>::quiet_NaN());
+    }
+  } else {
+    for (const double theta : study.polar_angles_rad) {
+      meshes::MeshParameters g = study.geometry;
+      if (g.benchmark == meshes::Benchmark::B2 && theta != 0) {
+        g.benchmark = meshes::Benchmark::B5;
+        g.contact_polar_angle_rad = theta;
+      }
+      sample_geometries.push_back(g);
+      sample_angles.push_back(theta);
+    }
+  }
   const bool rank0 = fem::MpiSession::rank() == 0;
   const int n = mode_count(study.modes);
   const geometry::Material& punch_material = study.material;
@@ -322,26 +448,34 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, co
       a, l, punch_material, study.half_space_polar_points, study.half_space_azimuth_points);
 
   realtime::mfs::OrganAtlas atlas;
-  atlas.organ = study.geometry.benchmark == meshes::Benchmark::B1
-                    ? "B1 cylinder W = " + format_number(study.geometry.body_radius_m) +
-                          " m, top face z = 0, base z = -W clamped"
-                    : "B2 hemisphere R = " + format_number(study.geometry.body_radius_m) + " m, base z = 0 clamped";
-  atlas.axisymmetric_about_z = true;  // both benchmark bodies and their clamped bases are
+  if (on_organ) {
+    const meshes::OrganAttachment& held = study.geometry.organ.attachment;
+    atlas.organ = "organ surface '" + fs::path(study.geometry.organ.surface_path).filename().string() + "' (sha256 " +
+                  sha256_hex(read_file(study.geometry.organ.surface_path)).substr(0, 16) + "…), " +
+                  (held.rule_count() == 0 ? std::string("no attachment (the exterior body is held by the cut)")
+                   : held.has_plane()     ? "held below a plane"
+                   : !held.msh_group.empty() ? "held on the group '" + held.msh_group + "'"
+                                             : "held on the listed triangles");
+    atlas.axisymmetric_about_z = false;
+  } else {
+    atlas.organ = study.geometry.benchmark == meshes::Benchmark::B1
+                      ? "B1 cylinder W = " + format_number(study.geometry.body_radius_m) +
+                            " m, top face z = 0, base z = -W clamped"
+                      : "B2 hemisphere R = " + format_number(study.geometry.body_radius_m) + " m, base z = 0 clamped";
+    atlas.axisymmetric_about_z = true;  // both benchmark bodies and their clamped bases are
+  }
   atlas.mode_count = n;
 
   json samples = json::array();
   const auto start = std::chrono::steady_clock::now();
   if (rank0 && !options.quiet)
     std::printf("%s: %zu sample%s, modes %s, levels %d..%d; half-space K_ext normal %.6g N/m, tangential %.6g N/m\n",
-                study.name.c_str(), study.polar_angles_rad.size(), study.polar_angles_rad.size() == 1 ? "" : "s",
+                study.name.c_str(), sample_geometries.size(), sample_geometries.size() == 1 ? "" : "s",
                 to_string(study.modes).c_str(), study.refinements.front(), study.refinements.back(), half_space(0, 0),
                 half_space(1, 1));
-  for (const double theta : study.polar_angles_rad) {
-    meshes::MeshParameters g = study.geometry;
-    if (g.benchmark == meshes::Benchmark::B2 && theta != 0) {
-      g.benchmark = meshes::Benchmark::B5;
-      g.contact_polar_angle_rad = theta;
-    }
+  for (std::size_t sample_index = 0; sample_index < sample_geometries.size(); ++sample_index) {
+    const meshes::MeshParameters& g = sample_geometries[sample_index];
+    const double theta = sample_angles[sample_index];
     const std::string label = sample_label(g);
     const ExteriorStiffness k =
         exterior_stiffness_fem(g, study.material, study.modes, study.refinements, study.trace_depth_m, study.solver,
@@ -371,7 +505,7 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, co
     json ratio = json::array();
     for (int m = 0; m < n; ++m) ratio.push_back(k.stiffness_N_per_m(m, m) / half_space(m, m));
     samples.push_back({{"label", label},
-                       {"contact_polar_angle_rad", theta},
+                       {"contact_polar_angle_rad", std::isfinite(theta) ? json(theta) : json(nullptr)},
                        {"contact_point_m", vector_json(sample.contact_point_m)},
                        {"direction", vector_json(sample.direction)},
                        {"frame_origin_m", vector_json(sample.frame.origin)},
@@ -411,11 +545,11 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& study, co
                   {"trace_depth_m", study.trace_depth_m},
                   {"half_space_stiffness_N_per_m", matrix_json(half_space, 3)},
                   {"samples", samples},
-                  {"cost_s", {{"total", total}, {"per_sample", total / study.polar_angles_rad.size()}}}};
+                  {"cost_s", {{"total", total}, {"per_sample", total / static_cast<double>(sample_geometries.size())}}}};
     write_file_atomically(options.output_directory + "/results.json", document.dump(2) + "\n");
     if (!options.quiet)
       std::printf("offline cost: %.1f s for the organ, %.1f s per sample (cached solves cost nothing)\n", total,
-                  total / study.polar_angles_rad.size());
+                  total / static_cast<double>(sample_geometries.size()));
   }
   return atlas;
 }

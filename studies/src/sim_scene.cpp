@@ -88,7 +88,8 @@ json summary_json(const rt::RunSummary& r) {
         {"build_p50_s", f.build_p50_s}, {"build_max_s", f.build_max_s}}},
       {"model_builds",
        {{"exterior_used", r.exterior_used},
-        {"first_build_error", r.first_build_error.empty() ? json(nullptr) : json(r.first_build_error)}}},
+        {"first_build_error", r.first_build_error.empty() ? json(nullptr) : json(r.first_build_error)},
+        {"first_exterior_note", r.first_exterior_note.empty() ? json(nullptr) : json(r.first_exterior_note)}}},
       {"notes", r.notes},
   };
 }

@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -206,6 +207,16 @@ SimScene read_sim_scene(const std::string& path) {
   scene.surface_path = path_relative_to(directory, organ.string("surface", ""));
   if (!scene.surface_path.empty() && !fs::is_regular_file(scene.surface_path))
     throw ConfigError(organ.where("surface") + ": no such file '" + scene.surface_path + "'");
+  scene.atlas_path = path_relative_to(directory, organ.string("atlas", ""));
+  if (!scene.atlas_path.empty()) {
+    if (!fs::is_regular_file(scene.atlas_path))
+      throw ConfigError(organ.where("atlas") + ": no such file '" + scene.atlas_path + "' (make it with touchstone atlas)");
+    try {
+      s.organ_atlas = std::make_shared<const realtime::mfs::OrganAtlas>(realtime::mfs::read_organ_atlas(scene.atlas_path));
+    } catch (const std::exception& error) {
+      throw ConfigError(organ.where("atlas") + ": " + error.what());
+    }
+  }
   ConfigTable device = config.table("device");
   ConfigTable replay = device.table("replay");
   scene.replay_path = path_relative_to(directory, replay.string("file", ""));
@@ -247,6 +258,7 @@ std::string resolved_scene_toml(const SimScene& scene) {
   // Absolute paths: the resolved file reads back from any folder.
   const auto absolute = [](const std::string& path) { return path.empty() ? path : fs::absolute(path).lexically_normal().string(); };
   detail::toml_section_of(document, "organ").insert("surface", absolute(scene.surface_path));
+  if (!scene.atlas_path.empty()) detail::toml_section_of(document, "organ").insert("atlas", absolute(scene.atlas_path));
   detail::toml_section_of(document, "device.replay").insert("file", absolute(scene.replay_path));
   toml::table& scripted = detail::toml_section_of(document, "device.scripted");
   for (std::size_t i = 0; i < scene.palpation.sites.size(); ++i) {
@@ -262,6 +274,7 @@ std::string resolved_scene_toml(const SimScene& scene) {
 json sim_scene_params(const SimScene& scene) {
   json params = json::object();
   add_params(scene_fields(), params, scene);
+  params["organ_atlas"] = scene.atlas_path;
   return params;
 }
 

@@ -5,11 +5,13 @@
 #include "support/temporary_directory.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/geometry/icosphere.hpp"
+#include "touchstone/realtime/mfs/organ_atlas.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -241,6 +243,90 @@ TEST(SimRun, StudyModeWritesSummaryForcesAndATimeSeries) {
   const std::string check = "/usr/bin/python3 " + source_dir + "/tests/realtime/graphics/check_vtp_series.py " +
                             directory.path("out") + " small 18";
   EXPECT_EQ(std::system(check.c_str()), 0) << check;
+}
+
+// [organ] atlas gives the enriched model its body-aware exterior: with an atlas sample at the
+// palpation site every build uses it (the summary counts the exterior of each build), and an
+// exterior twice the half-space's stiffness makes the largest force larger than the run without
+// the atlas, whose builds fall back to the half-space and say so. A missing atlas file is a
+// config error naming the key.
+TEST(SimRun, AnOrganAtlasGivesTheBuildsTheirBodyAwareExterior) {
+  touchstone::testing::TemporaryDirectory directory("sim_atlas");
+  const auto mesh = geometry::icosphere(4, 0.04);
+  meshes::write_surface_mesh(directory.path("sphere.vtp"), mesh.vertices, mesh.triangles);
+  const Eigen::Vector3d top = *std::max_element(mesh.vertices.begin(), mesh.vertices.end(),
+                                                [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.z() < b.z(); });
+  const std::string scene_text = R"(
+scene = "atlas"
+duration = "2.5 s"
+[organ]
+surface = "sphere.vtp"
+@ATLAS@
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+tip_radius = "2.5 mm"
+contact = "frictionless"
+[model.sprinkling]
+node_count = 30
+local_radius = "12.5 mm"
+[device.scripted]
+site0 = [)" + std::to_string(top.x()) + ", " + std::to_string(top.y()) + ", " + std::to_string(top.z()) + R"(]
+slide = "1 mm"
+approach = "0.5 s"
+hold = "0.3 s"
+slide_time = "0.3 s"
+release = "0.4 s"
+rest = "0.2 s"
+[output]
+time_series = false
+)";
+  const auto scene_with = [&](const std::string& atlas_line, const std::string& name) {
+    std::string text = scene_text;
+    text.replace(text.find("@ATLAS@"), 7, atlas_line);
+    return directory.file(name, text);
+  };
+
+  realtime::mfs::OrganAtlas atlas;
+  atlas.organ = "icosphere R = 40 mm";
+  atlas.mode_count = 3;  // the sim pushes along the face normal, which may be oblique to the patch: all modes
+  realtime::mfs::OrganAtlasSample sample;
+  sample.label = "top";
+  sample.contact_point_m = top;
+  sample.direction = -top.normalized();
+  sample.frame = realtime::mfs::PunchFrame::along(top, sample.direction);
+  sample.tool_radius_m = 0.0025;
+  sample.local_radius_m = 0.0125;
+  sample.youngs_modulus_Pa = 10e3;
+  sample.poisson_ratio = 0.45;
+  // Twice the half-space's K_ext (normal 14.4899, tangential 7.32969 N/m: studies/organ_atlas).
+  sample.half_space_stiffness_N_per_m.diagonal() << 14.4899, 7.32969, 7.32969;
+  sample.stiffness_N_per_m = 2 * sample.half_space_stiffness_N_per_m;
+  atlas.samples.push_back(sample);
+  realtime::mfs::write_organ_atlas(atlas, directory.path("atlas.json"));
+
+  SimOptions options;
+  options.virtual_clock = true;
+  options.print = false;
+  options.output_directory = directory.path("with");
+  const nlohmann::json with = run_sim(read_sim_scene(scene_with("atlas = \"atlas.json\"", "with.toml")), options);
+  options.output_directory = directory.path("without");
+  const nlohmann::json without = run_sim(read_sim_scene(scene_with("", "without.toml")), options);
+  const auto& used_with = with["model_builds"]["exterior_used"];
+  const auto& used_without = without["model_builds"]["exterior_used"];
+  ASSERT_TRUE(used_with.contains("body_aware")) << with["model_builds"].dump();
+  EXPECT_FALSE(used_with.contains("half_space")) << with["model_builds"].dump();
+  ASSERT_TRUE(used_without.contains("half_space")) << without["model_builds"].dump();
+  EXPECT_FALSE(used_without.contains("body_aware"));
+  EXPECT_GT(with["forces"]["max_force_N"].get<double>(), 1.01 * without["forces"]["max_force_N"].get<double>());
+
+  try {
+    read_sim_scene(scene_with("atlas = \"no_such_atlas.json\"", "missing.toml"));
+    FAIL() << "a missing atlas was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("organ.atlas"), std::string::npos) << error.what();
+  }
 }
 
 TEST(SimRun, ARecordingReplaysToTheSameForces) {

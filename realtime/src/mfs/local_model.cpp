@@ -434,6 +434,31 @@ NodeCloud sprinkle_local_nodes(const geometry::TriangleSurface& organ, const Too
   return sprinkle_nodes(organ, contact, sprinkling);
 }
 
+ExteriorStiffnessSource exterior_from_atlas(std::shared_ptr<const OrganAtlas> atlas) {
+  if (!atlas) return {};
+  return [atlas](const ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
+                 Eigen::MatrixXd& stiffness, std::string& why_not) {
+    OrganAtlasQuery query;
+    query.contact_point_m = contact.point;
+    query.direction = contact.direction;
+    query.tool_radius_m = contact.radius_m;
+    query.local_radius_m = local_radius_m;
+    query.material = material;
+    const OrganAtlasLookup found = lookup_exterior_stiffness(*atlas, query);
+    if (found.status != OrganAtlasStatus::ok) {
+      why_not = "organ atlas: " + found.message;
+      return false;
+    }
+    if (found.mode_count < modes) {
+      why_not = "organ atlas has the normal mode only; this contact loads the tangential modes too (a bonded tool, or a push "
+                "more than 1 degree off the patch normal): make the atlas with modes = \"all\"";
+      return false;
+    }
+    stiffness = found.stiffness_N_per_m.topLeftCorner(modes, modes);
+    return true;
+  };
+}
+
 LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolContact& contact, const geometry::Material& material,
                              const LocalModelSettings& settings, const ClampedSurface& clamped,
                              const ExteriorStiffnessSource& exterior) {

@@ -14,7 +14,7 @@ BuildResult RuntimeState::build(const BuildRequest& request) const {
     contact.direction = request.direction;
     contact.radius_m = settings.tool.tip_radius_m;
     contact.condition = settings.tool.condition;
-    auto model = std::make_shared<mfs::LocalModel>(mfs::build_local_model(organ, contact, settings.material, settings.model));
+    auto model = std::make_shared<mfs::LocalModel>(mfs::build_local_model(organ, contact, settings.material, settings.model, {}, mfs::exterior_from_atlas(settings.organ_atlas)));
     if (model->ok() && graphics_enabled())
       result.deformation = std::make_shared<DeformationMap>(make_deformation_map(*model, organ, 0));
     result.model = std::move(model);
@@ -76,6 +76,7 @@ void ModelLoop::adopt(BuildResult result) {
   }
   model = result.model;
   ++exterior_used[model->exterior_used.empty() ? "none" : model->exterior_used];
+  if (first_exterior_note.empty() && !model->exterior_note.empty()) first_exterior_note = model->exterior_note;
   snapshot.model_id += 1;
   snapshot.valid = true;
   snapshot.tool_stiffness_N_per_m = plain(model->tool_stiffness_N_per_m);

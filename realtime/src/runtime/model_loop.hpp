@@ -24,6 +24,7 @@ struct ModelLoop {
   /// "body_aware", or "half_space" after a body-aware fallback); other formulations: "none".
   std::map<std::string, long long> exterior_used;
   std::string first_build_error;  ///< why the first failed build failed ("" when none did)
+  std::string first_exterior_note;  ///< why the first build without its body-aware exterior fell back ("" when none did)
 
   ModelLoop(RuntimeState& sim_, bool synchronous_) : sim(sim_), synchronous(synchronous_) {}
 

@@ -155,10 +155,17 @@ struct Simulation::Impl : RuntimeState {
       summary.forces.build_max_s = model->build_times_s.empty() ? 0 : *std::max_element(model->build_times_s.begin(), model->build_times_s.end());
       summary.exterior_used = model->exterior_used;
       summary.first_build_error = model->first_build_error;
+      summary.first_exterior_note = model->first_exterior_note;
       if (work.model_build_failures > 0)
         notes.push_back(std::to_string(work.model_build_failures) + " of " + std::to_string(work.model_builds) +
                         " model builds failed (the force stayed on the previous model, or zero); the first: " +
                         model->first_build_error);
+      if (!model->first_exterior_note.empty()) {
+        const auto fallback = model->exterior_used.find("half_space");
+        notes.push_back(std::to_string(fallback == model->exterior_used.end() ? 0 : fallback->second) +
+                        " model builds used the half-space exterior in place of the body-aware one; the first because: " +
+                        model->first_exterior_note);
+      }
     }
     if (graphics) {
       work.graphics_frames = graphics->work.graphics_frames;

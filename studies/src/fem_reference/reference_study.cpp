@@ -542,26 +542,32 @@ void ReferenceStudy::validate() const {
   }
 }
 
+std::string generated_organ_surface(const std::string& shape, int triangles, double hemisphere_radius_m, const std::string& folder) {
+  const fs::path organs = fs::path(folder) / "organs";
+  std::ostringstream name;
+  name << shape << "_" << triangles << "_R" << format_number(hemisphere_radius_m) << ".stl";
+  const std::string path = (organs / name.str()).string();
+  if (fem::MpiSession::rank() == 0 && !fs::exists(path)) {
+    fs::create_directories(organs);
+    meshes::OrganParameters organ;
+    organ.shape = meshes::organ_shape_from_string(shape);
+    organ.target_triangles = triangles;
+    organ.hemisphere_radius_m = hemisphere_radius_m;
+    meshes::write_organ_mesh(organ, path + ".partial.stl");
+    fs::rename(path + ".partial.stl", path);
+  }
+  fem::MpiSession::barrier();
+  return fs::absolute(path).lexically_normal().string();
+}
+
 nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions& options) {
   study.validate();
   if (study.generated_organ.empty()) return Runner(study, options).run();
   // The generated surface is deterministic: one file per shape, size and count, shared by runs.
   ReferenceStudy with_surface = study;
-  const fs::path folder = fs::path(options.cache_directory.empty() ? options.output_directory : options.cache_directory) / "organs";
-  std::ostringstream name;
-  name << study.generated_organ << "_" << study.generated_organ_triangles << "_R" << format_number(study.geometry.body_radius_m) << ".stl";
-  const std::string path = (folder / name.str()).string();
-  if (fem::MpiSession::rank() == 0 && !fs::exists(path)) {
-    fs::create_directories(folder);
-    meshes::OrganParameters organ;
-    organ.shape = meshes::organ_shape_from_string(study.generated_organ);
-    organ.target_triangles = study.generated_organ_triangles;
-    organ.hemisphere_radius_m = study.geometry.body_radius_m;
-    meshes::write_organ_mesh(organ, path + ".partial.stl");
-    fs::rename(path + ".partial.stl", path);
-  }
-  fem::MpiSession::barrier();
-  with_surface.geometry.organ.surface_path = fs::absolute(path).lexically_normal().string();
+  with_surface.geometry.organ.surface_path =
+      generated_organ_surface(study.generated_organ, study.generated_organ_triangles, study.geometry.body_radius_m,
+                              options.cache_directory.empty() ? options.output_directory : options.cache_directory);
   with_surface.generated_organ.clear();  // config.resolved.toml names the file that was used
   return Runner(with_surface, options).run();
 }

@@ -51,8 +51,9 @@ struct MeshParameters {
   double contact_polar_angle_rad = 0; ///< θ (B5 only), polar angle of the patch centre, 0 < θ < π/2
   std::array<double, 3> box_size_m{{1.0, 1.0, 1.0}};  ///< Box only
   OrganBody organ;  ///< Organ only: the surface, the contact and the attachment (body_radius_m unused)
-  /// B1, B2, B5: mesh the body MINUS ball(c, local_radius_m) instead of the body, c the patch
-  /// centre on the surface (B1: the top centre (0, 0, 0); B2: the pole; B5: R (sin θ, 0, cos θ)).
+  /// B1, B2, B5, Organ: mesh the body MINUS ball(c, local_radius_m) instead of the body, c the
+  /// patch centre on the surface (B1: the top centre (0, 0, 0); B2: the pole; B5: R (sin θ, 0,
+  /// cos θ); Organ: the contact site, the sphere cap closing the surface as a triangulation).
   /// This is the exterior of the MFS local domain, whose stiffness the enriched model needs. The
   /// ball's sphere is the group "cut"; there is no tool patch (it lies inside the ball), and the
   /// size field grades from the cut instead of the patch edge: d below is the distance |x − c| − L

@@ -37,8 +37,17 @@ struct OrganContactSite {
 };
 OrganContactSite organ_contact_site(const OrganBody& organ);
 
+/// The centre of the tool patch's rim circle [m]: on the tool axis through the contact, at the
+/// mean height where lines parallel to the axis at distance tool_radius_m from it meet the
+/// surface (the origin of the punch fields' frame). Reads the surface; throws as organ_contact_site
+/// does, and when the patch does not fit on the surface.
+std::array<double, 3> organ_rim_centre(const OrganBody& organ, double tool_radius_m);
+
 /// Meshes parameters.organ (parameters.benchmark == Benchmark::Organ) with the size law of
-/// `parameters` and writes MSH 2.2 ASCII to msh_path. Throws std::invalid_argument for a bad
+/// `parameters` and writes MSH 2.2 ASCII to msh_path. With parameters.exterior_of_local_ball it
+/// meshes the organ MINUS ball(c, local_radius_m) instead, c the contact: steps 1–2 with d the
+/// distance to the cut sphere, then the ball cut out and its hole closed by the sphere cap
+/// (local_ball_cut.hpp), grouped base (the attachment), cut (the cap) and free. Throws std::invalid_argument for a bad
 /// surface, an attachment that selects nothing, a patch the surface cannot hold or that touches
 /// the attachment (each naming the file, rule or sizes), std::runtime_error when gmsh fails.
 MeshSummary generate_organ_body_mesh(const MeshParameters& parameters, const std::string& msh_path);

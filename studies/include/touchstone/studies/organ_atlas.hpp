@@ -3,7 +3,9 @@
 /// `touchstone atlas`: the organ atlas of the enriched real-time model, computed offline by FEM.
 ///
 /// For each sample contact c on the organ (the hemisphere: polar angles θ from a list, the tool
-/// along the inward normal; B1: the centre of the top face), K_ext [N/m] is the energy bilinear
+/// along the inward normal; B1: the centre of the top face; a user's organ surface: the points of
+/// a hexagonal lattice over a region of it, each moved onto the surface, the tool along the
+/// inward normal there), K_ext [N/m] is the energy bilinear
 /// form of the EXTERIOR BODY (organ ∖ ball(c, L), its base clamped, traction-free elsewhere)
 /// under the Dirichlet trace u = ψ_m on the cut sphere, ψ_m the closed-form punch fields of
 /// realtime/mfs/punch_field.hpp: K_mm = 2 E(δ ψ_m) / δ², K_mn = (E(δ(ψ_m + ψ_n)) − E(δψ_m) −
@@ -21,6 +23,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -37,9 +41,22 @@ struct OrganAtlasStudy {
   /// benchmark B2 (the hemisphere; a sample at θ > 0 is meshed as B5) or B1, body_radius_m,
   /// tool_radius_m (a), local_radius_m (L); edge_size_m is the element size on the cut sphere at
   /// level 0, size_growth and max_size_m grade it outward. exterior_of_local_ball is set per solve.
+  /// Organ: geometry.organ holds the surface and the optional attachment (the exterior body is
+  /// held by the trace on the cut already); its contact point and tool axis are set per sample.
   meshes::MeshParameters geometry;
   geometry::Material material;
   std::vector<double> polar_angles_rad{0.0};  ///< hemisphere samples; B1 has its one sample
+  /// Organ with no surface file: generate this organ ("stomach", or "hemisphere" of radius
+  /// geometry.body_radius_m) with about this many triangles, cached like the FEM solves.
+  std::string generated_organ;
+  int generated_organ_triangles = 20000;
+  /// Organ samples: a hexagonal lattice of spacing sample_spacing_m (0: the local radius L) in
+  /// the tangent plane at the surface point nearest to region_centre_m (NaN: the organ's highest
+  /// vertex, where the palpation scene's generated sites gather), its points within
+  /// region_radius_m (0: that one point), each moved to the nearest surface point [m].
+  std::array<double, 3> region_centre_m{{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0}};
+  double region_radius_m = 0;
+  double sample_spacing_m = 0;
   AtlasModes modes = AtlasModes::all;
   std::vector<int> refinements{0, 1, 2};      ///< consecutive levels; three or more for Richardson
   /// Depth scaling the trace [m]: the energies are divided by its square, so any value gives the
@@ -57,8 +74,13 @@ struct OrganAtlasStudy {
 /// [solver]. Unknown keys are errors naming the file and the key.
 OrganAtlasStudy read_organ_atlas_study(ConfigTable& config);
 
+/// The contact points (queries; each sample's contact is the surface point nearest to one) of an
+/// organ study whose surface is resolved (geometry.organ.surface_path set). Reads the surface.
+std::vector<std::array<double, 3>> organ_atlas_sites(const OrganAtlasStudy& study);
+
 /// The punch frame of a sample: origin at the centre of the rim circle (c − (R − √(R² − a²)) n on
-/// a sphere of radius R, c itself on a flat face), e₃ = −n, the inward normal.
+/// a sphere of radius R, c itself on a flat face; on an organ surface the rim circle found on the
+/// surface, meshes::organ_rim_centre), e₃ = −n, the inward normal.
 realtime::mfs::PunchFrame atlas_punch_frame(const meshes::MeshParameters& geometry);
 
 /// The half-space K_ext [N/m] (3×3, mode order normal, tangential_1, tangential_2):

@@ -28,6 +28,9 @@ struct SimScene {
   std::string surface_path;
   double surface_unit_scale = 1.0;  ///< metres per unit of the surface file (1e-3: millimetres)
   meshes::OrganParameters generated_organ;
+  /// The organ atlas (`touchstone atlas`) of this organ for the enriched model's body-aware
+  /// exterior; empty: none (every build then uses the half-space exterior, and says so).
+  std::string atlas_path;
   realtime::runtime::SceneSettings settings;
 
   DeviceKind device = DeviceKind::scripted;

@@ -15,6 +15,7 @@
 #include "touchstone/realtime/mfs/galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
+#include "touchstone/realtime/mfs/organ_atlas.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"
 
 #include <Eigen/Core>
@@ -22,6 +23,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 
 namespace touchstone::realtime::mfs {
@@ -124,6 +126,12 @@ struct BuildTimes {
 using ExteriorStiffnessSource =
     std::function<bool(const ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,
                        Eigen::MatrixXd& exterior_stiffness_N_per_m, std::string& why_not)>;
+
+/// The exterior stiffness an organ atlas gives: lookup_exterior_stiffness at the contact (its
+/// point, push direction, a, L and material); no answer (no sample nearby, other parameters, the
+/// normal mode only for a bonded tool) says why, and the model falls back to the half-space.
+/// A null atlas gives an empty source.
+ExteriorStiffnessSource exterior_from_atlas(std::shared_ptr<const OrganAtlas> atlas);
 
 struct LocalModel {
   geometry::Material material;

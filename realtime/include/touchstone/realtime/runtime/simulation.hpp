@@ -41,6 +41,7 @@
 #include <cstddef>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,9 @@ struct TimingSettings {
 struct SceneSettings {
   geometry::Material material;
   mfs::LocalModelSettings model;   ///< contact, direction and tool radius are set per contact
+  /// The organ atlas of the enriched model's body-aware exterior; null: every build falls back to
+  /// the half-space exterior and the run reports it.
+  std::shared_ptr<const mfs::OrganAtlas> organ_atlas;
   ToolSettings tool;
   RateSettings rates;
   ForceMode force_mode = ForceMode::stiffness;
@@ -197,6 +201,9 @@ struct RunSummary {
   /// Successful model builds by the exterior the model used ("none" outside the enriched model).
   std::map<std::string, long long> exterior_used;
   std::string first_build_error;  ///< why the first failed model build failed ("" when none did)
+  /// Why the first build that wanted the body-aware exterior fell back to the half-space (e.g. no
+  /// organ atlas, or no atlas sample near the contact); "" when none did.
+  std::string first_exterior_note;
   std::vector<std::string> notes;
 };
 

@@ -60,6 +60,12 @@ struct RunOptions {
 /// results.json document that was written to <output>/results.json.
 nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions& options);
 
+/// The surface file of a generated organ ("hemisphere" of radius hemisphere_radius_m, or
+/// "stomach") with about `triangles` triangles, in <folder>/organs: written once (rank 0, moved
+/// into place whole), then shared by every run with the same shape, size and count (the generator
+/// is deterministic). Collective over MPI ranks. Returns the absolute path.
+std::string generated_organ_surface(const std::string& shape, int triangles, double hemisphere_radius_m, const std::string& folder);
+
 /// Closed forms for a rigid flat punch on a half-space [N]:
 /// Sneddon 2Eaδ/(1−ν²) (frictionless), Mossakovskii 4Gaδ·ln(3−4ν)/(1−2ν) (bonded).
 double half_space_punch_force_N(const geometry::Material& material, double tool_radius_m,
