@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 namespace touchstone::meshes {
@@ -218,33 +219,29 @@ BallCutSurface cut_out_local_ball(const std::vector<Eigen::Vector3d>& vertices, 
   if (cap.empty()) throw std::runtime_error("cutting " + where + ": the cap triangulation is empty");
 
   // Cap triangles face into the ball (out of the exterior body). The kept surface's boundary runs
-  // p → q along the curve, so a cap of the right side of the sphere runs each curve edge q → p.
-  std::unordered_map<std::uint64_t, int> cap_direction;  // +1: p → q as in the curve, −1: reversed
+  // p → q along the curve, so a cap on the right side of the sphere runs each curve edge q → p.
+  const auto directed = [](int p, int q) { return static_cast<std::uint64_t>(p) << 32 | static_cast<std::uint32_t>(q); };
+  std::unordered_set<std::uint64_t> cap_edges;
   const auto at = [&](int v) -> const Eigen::Vector3d& { return out.vertices[static_cast<std::size_t>(v)]; };
   for (Eigen::Vector3i t : cap) {
     const Eigen::Vector3d normal = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
     if (normal.dot(ball.centre_m - (at(t[0]) + at(t[1]) + at(t[2])) / 3) < 0) std::swap(t[1], t[2]);
     out.cap_area_m2 += 0.5 * normal.norm();
-    for (int k = 0; k < 3; ++k) cap_direction[internal::edge_key(t[k], t[(k + 1) % 3])] = t[k] < t[(k + 1) % 3] ? 1 : -1;
+    for (int k = 0; k < 3; ++k) {
+      cap_edges.insert(directed(t[k], t[(k + 1) % 3]));
+      out.sphere_relative_deviation = std::max(out.sphere_relative_deviation, std::abs(sphere.level(at(t[k]))) / ball.radius_m);
+    }
     out.triangles.push_back(t);
     out.on_cap.push_back(1);
     out.source_triangle.push_back(std::numeric_limits<std::size_t>::max());
   }
   for (std::size_t k = 0; k < out.cut_curve.size(); ++k) {
     const int p = out.cut_curve[k], q = out.cut_curve[(k + 1) % out.cut_curve.size()];
-    const auto it = cap_direction.find(internal::edge_key(p, q));
-    const int reversed = p < q ? -1 : 1;  // the direction value of q → p
-    if (it == cap_direction.end() || it->second != reversed)
+    if (!cap_edges.count(directed(q, p)))
       throw std::invalid_argument("cutting " + where + ": the cap on the sphere does not close the surface consistently; the outward "
                                   "direction " + text_of(ball.outward_direction.normalized()) +
                                   " must point out of the organ, so that the projection pole c + L n lies outside it");
   }
-  for (const int v : out.cut_curve)
-    out.sphere_relative_deviation = std::max(out.sphere_relative_deviation, std::abs(sphere.level(at(v))) / ball.radius_m);
-  for (std::size_t i = 0; i < out.triangles.size(); ++i)
-    if (out.on_cap[i])
-      for (int k = 0; k < 3; ++k)
-        out.sphere_relative_deviation = std::max(out.sphere_relative_deviation, std::abs(sphere.level(at(out.triangles[i][k]))) / ball.radius_m);
   return out;
 }
 

@@ -4,7 +4,6 @@
 
 #include "touchstone/fem/richardson.hpp"
 #include "touchstone/meshes/organ_body_mesh.hpp"
-#include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
@@ -294,12 +293,7 @@ void OrganAtlasStudy::validate() const {
   if (geometry.benchmark == meshes::Benchmark::Organ) {
     if (generated_organ.empty() == geometry.organ.surface_path.empty())
       throw std::invalid_argument("OrganAtlasStudy: give exactly one of organ.surface and organ.generate");
-    if (!generated_organ.empty()) {
-      meshes::organ_shape_from_string(generated_organ);  // throws naming the value
-      if (generated_organ_triangles < 100 || generated_organ_triangles > 1000000)
-        throw std::invalid_argument("OrganAtlasStudy.generated_organ_triangles = " + std::to_string(generated_organ_triangles) +
-                                    " must be in [100, 1000000]");
-    }
+    if (!generated_organ.empty()) validate_generated_organ(generated_organ, generated_organ_triangles);
     if (!std::isnan(region_centre_m[0]))
       for (const double x : region_centre_m)
         if (!std::isfinite(x)) throw std::invalid_argument("OrganAtlasStudy.region_centre_m has a non-finite coordinate");

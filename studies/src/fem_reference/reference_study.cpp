@@ -503,9 +503,7 @@ void ReferenceStudy::validate() const {
       throw std::invalid_argument("organ.generate = '" + generated_organ + "' needs geometry.benchmark = organ");
     if (!geometry.organ.surface_path.empty())
       throw std::invalid_argument("organ.generate and organ.surface are both set: give one");
-    meshes::organ_shape_from_string(generated_organ);  // throws naming the value
-    if (generated_organ_triangles < 100 || generated_organ_triangles > 1000000)
-      throw std::invalid_argument("organ.generate_triangles = " + std::to_string(generated_organ_triangles) + " must be in [100, 1000000]");
+    validate_generated_organ(generated_organ, generated_organ_triangles);
     checked.organ.surface_path = "(generated)";
   }
   checked.validate();
@@ -540,6 +538,12 @@ void ReferenceStudy::validate() const {
     g.edge_size_m = h;
     g.validate();
   }
+}
+
+void validate_generated_organ(const std::string& shape, int triangles) {
+  meshes::organ_shape_from_string(shape);  // throws naming the value
+  if (triangles < 100 || triangles > 1000000)
+    throw std::invalid_argument("organ.generate_triangles = " + std::to_string(triangles) + " must be in [100, 1000000]");
 }
 
 std::string generated_organ_surface(const std::string& shape, int triangles, double hemisphere_radius_m, const std::string& folder) {

@@ -60,6 +60,10 @@ struct RunOptions {
 /// results.json document that was written to <output>/results.json.
 nlohmann::json run_reference_study(const ReferenceStudy& study, const RunOptions& options);
 
+/// Throws std::invalid_argument naming organ.generate or organ.generate_triangles when `shape` is
+/// not a generated organ's name or `triangles` lies outside [100, 1000000].
+void validate_generated_organ(const std::string& shape, int triangles);
+
 /// The surface file of a generated organ ("hemisphere" of radius hemisphere_radius_m, or
 /// "stomach") with about `triangles` triangles, in <folder>/organs: written once (rank 0, moved
 /// into place whole), then shared by every run with the same shape, size and count (the generator
