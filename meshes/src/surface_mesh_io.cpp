@@ -15,6 +15,8 @@
 #include <vtkNew.h>
 #include <vtkOBJWriter.h>
 #include <vtkPoints.h>
+#include <vtkDoubleArray.h>
+#include <vtkPointData.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataReader.h>
 #include <vtkPolyDataWriter.h>
@@ -923,7 +925,20 @@ void write_surface_mesh(const std::string& path, const std::vector<Vector3d>& ve
     write_msh(path, vertices, triangles, options.unit_scale);
     return;
   }
+  if (!options.point_vectors.empty() && format != SurfaceFormat::vtp && format != SurfaceFormat::vtk)
+    throw std::invalid_argument(path + ": point vectors can only be written to .vtp or .vtk");
   const vtkSmartPointer<vtkPolyData> data = to_polydata(vertices, triangles, options.unit_scale);
+  for (const auto& [name, values] : options.point_vectors) {
+    if (values.size() != vertices.size())
+      throw std::invalid_argument(path + ": point vector '" + name + "' has " + std::to_string(values.size()) +
+                                  " values for " + std::to_string(vertices.size()) + " vertices");
+    vtkNew<vtkDoubleArray> array;
+    array->SetName(name.c_str());
+    array->SetNumberOfComponents(3);
+    array->SetNumberOfTuples(static_cast<vtkIdType>(values.size()));
+    for (std::size_t i = 0; i < values.size(); ++i) array->SetTuple(static_cast<vtkIdType>(i), values[i].data());
+    data->GetPointData()->AddArray(array);
+  }
   switch (format) {
     case SurfaceFormat::msh: break;
     case SurfaceFormat::obj: {

@@ -733,5 +733,9 @@ void MpiSession::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
 void MpiSession::broadcast_from_root(std::vector<double>& values) {
   values = Utilities::MPI::broadcast(MPI_COMM_WORLD, values, 0);
 }
+void MpiSession::sum_over_ranks(std::vector<double>& values) {
+  const std::vector<double> mine = values;
+  Utilities::MPI::sum(mine, MPI_COMM_WORLD, values);
+}
 
 }  // namespace touchstone::fem

@@ -11,18 +11,26 @@ ToolStiffness solve_tool_stiffness(const ElasticityProblem& problem, MPI_Comm co
   problem.punch->validate();
   const auto start = std::chrono::steady_clock::now();
   ElasticityProblem unit = problem;
-  unit.probes.clear();
-  unit.vtu_directory.clear();
   const double depth = problem.punch->depth_m;
 
   ToolStiffness stiffness;
+  stiffness.probe_displacement_per_displacement.assign(problem.probes.size(), Eigen::Matrix3d::Zero());
+  stiffness.probe_found.assign(problem.probes.size(), true);
+  const auto take_probes = [&](const ElasticitySolution& solution, const Eigen::Vector3d& row) {
+    for (std::size_t p = 0; p < problem.probes.size(); ++p) {
+      stiffness.probe_displacement_per_displacement[p] += (solution.probe_displacements_m[p] / depth) * row.transpose();
+      stiffness.probe_found[p] = stiffness.probe_found[p] && solution.probe_found[p];
+    }
+  };
   stiffness.contact = problem.punch->contact;
   stiffness.axis = problem.punch->direction.normalized();
   if (stiffness.contact == geometry::ContactCondition::bonded) {
     for (int column = 0; column < 3; ++column) {
       unit.punch->direction = Eigen::Vector3d::Unit(column);
+      if (!problem.vtu_directory.empty()) unit.vtu_basename = problem.vtu_basename + "_" + "xyz"[column];
       const ElasticitySolution solution = solve_elasticity(unit, communicator);
       stiffness.force_per_displacement_N_per_m.col(column) = solution.force_N / depth;
+      take_probes(solution, Eigen::Vector3d::Unit(column));
       stiffness.dof_count = solution.dof_count;
       ++stiffness.solves;
     }
@@ -30,6 +38,7 @@ ToolStiffness solve_tool_stiffness(const ElasticityProblem& problem, MPI_Comm co
     unit.punch->direction = stiffness.axis;
     const ElasticitySolution solution = solve_elasticity(unit, communicator);
     stiffness.force_per_displacement_N_per_m = (solution.force_N / depth) * stiffness.axis.transpose();
+    take_probes(solution, stiffness.axis);
     stiffness.dof_count = solution.dof_count;
     stiffness.solves = 1;
   }

@@ -3,7 +3,7 @@ programs write. The C++ side writes data only.
 
     PYTHONPATH=<folder holding touchstone_reports> /usr/bin/python3 -m touchstone_reports KIND OUTPUT_DIR
 
-KIND is one of `study`, `collision`, `fem`, `mfs`, `sim` (see `__main__.py`).
+KIND is one of `study`, `collision`, `fem`, `mfs`, `sim`, `replay` (see `__main__.py`).
 """
 
-KINDS = ("study", "collision", "fem", "mfs", "sim")
+KINDS = ("study", "collision", "fem", "mfs", "sim", "replay")

@@ -17,7 +17,7 @@ def main(argv=None):
     parser.add_argument("kind", choices=KINDS)
     parser.add_argument("output_dir")
     parser.add_argument("--no-plots", action="store_true",
-                        help="collision: write report.md without plots (no matplotlib needed)")
+                        help="collision, replay: write report.md without plots (no matplotlib needed)")
     parser.add_argument("--plot-note", default=None,
                         help="collision with --no-plots: why there are no plots (printed in the report)")
     parser.add_argument("--quiet", action="store_true", help="print only errors (not the report's path)")
@@ -32,6 +32,9 @@ def main(argv=None):
         elif args.kind == "fem":
             from . import fem_report as module
             path = module.write(args.output_dir)
+        elif args.kind == "replay":
+            from . import replay_report as module
+            path = module.write(args.output_dir, plots=not args.no_plots)
         elif args.kind == "mfs":
             from . import mfs_report as module
             path = module.write(args.output_dir)

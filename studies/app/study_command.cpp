@@ -4,6 +4,8 @@
 
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/studies/output_files.hpp"
+#include "touchstone/studies/palpation_replay.hpp"
+#include "touchstone/studies/report_launcher.hpp"
 #include "touchstone/studies/study_runner.hpp"
 
 #include <cstdio>
@@ -48,15 +50,51 @@ void accept_baseline(const studies::ComparisonStudy& study, const nlohmann::json
               studies::describe_baseline_change(old, baseline).c_str());
 }
 
+/// A [replay] study file: the palpation replayed through the real-time model and the reference.
+int run_replay(const StudyOptions& o, const std::string& config) {
+  studies::ConfigTable table = studies::ConfigTable::from_file(config);
+  studies::PalpationReplayStudy study = studies::read_palpation_replay_study(table);
+  study.config_path = config;
+  studies::ReplayRunOptions run;
+  run.output_directory = o.run.output_directory.empty() ? "output/" + study.name : o.run.output_directory;
+  run.cache_directory = o.no_cache ? "" : o.run.cache_directory;
+  run.config_text = studies::read_file(config);
+  run.only = o.run.only;
+  run.quiet = o.run.quiet;
+  const nlohmann::json results = studies::run_palpation_replay(study, run);
+  if (fem::MpiSession::rank() != 0) return 0;
+  const auto& summary = results.at("summary");
+  std::printf("\npalpation replay: %zu contacts, %lld ticks verified: force error %.2f %% (relative L2 over the ticks), "
+              "%.2f %% RMS over the contacts, max %.3g N; reference uncertainty up to %.2f %%\n",
+              summary.at("verified_contacts").get<std::size_t>(), summary.at("verified_frames").get<long long>(),
+              100 * summary.at("force_error_l2").get<double>(), 100 * summary.at("force_error_rms_over_contacts").get<double>(),
+              summary.at("force_error_max_N").get<double>(), 100 * summary.at("reference_uncertainty_max").get<double>());
+  std::printf("results: %s/results.json\n", run.output_directory.c_str());
+  if (o.no_report) return 0;
+  studies::ReportLaunchOptions launch;
+  launch.python = o.run.python;
+  const studies::ReportStatus report = studies::run_report("replay", run.output_directory, launch);
+  if (!report.ok()) {
+    std::fprintf(stderr, "report: %s\n", report.message.c_str());
+    return 2;
+  }
+  return 0;
+}
+
 int run_study(StudyOptions o, ProgramArguments arguments) {
   const bool accept = o.args.size() == 2 && o.args[0] == "accept";
   if (o.args.size() == 2 && !accept) throw std::invalid_argument("study takes <config> or accept <config>");
   const std::string& config = o.args.back();
   fem::MpiSession mpi(*arguments.argc, *arguments.argv);
+  if (studies::is_palpation_replay_config(config)) {
+    if (accept) throw std::invalid_argument(config + ": a palpation replay has no CI baseline: `study accept` does not apply");
+    return run_replay(o, config);
+  }
   if (o.no_cache) o.run.cache_directory.clear();
   o.run.write_report = !o.no_report;
-  if (o.run.jobs > 1 && !o.run.quiet)
-    std::printf("note: --jobs %d: MFS run times are measured while other cases run\n", o.run.jobs);
+  if ((o.run.jobs > 1 || fem::MpiSession::size() > 1) && !o.run.quiet && fem::MpiSession::rank() == 0)
+    std::printf("note: %d MPI rank(s) x --jobs %d: MFS run times are measured while other cases run\n",
+                static_cast<int>(fem::MpiSession::size()), o.run.jobs);
   const studies::ComparisonStudy study = studies::read_comparison_study(config);
   // Refused before the study runs, not after an hour of it.
   if (accept && study.baseline_path.empty())
@@ -82,7 +120,9 @@ void add_study_command(CLI::App& program, std::vector<Command>& commands, Progra
       "study", "Compare the MFS with the converged FEM reference: force error vs N, displacement error, run time, "
                "Table 2 replica, speed and accuracy targets; writes results.json, CSV tables and report.md. "
                "`touchstone study accept <config>` also rewrites the study's CI baseline and prints what changed");
-  study_cmd->add_option("config", o->args, "Study file (TOML), e.g. studies/configs/hemisphere.toml; or: accept <config>")
+  study_cmd->add_option("config", o->args,
+                        "Study file (TOML), e.g. studies/configs/hemisphere.toml; a file with a [replay] table "
+                        "(studies/configs/palpation_replay.toml) replays a palpation through both models; or: accept <config>")
       ->required()->expected(1, 2);
   study_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)");
   study_cmd->add_option("--only", o->run.only,

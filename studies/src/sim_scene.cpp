@@ -90,8 +90,26 @@ json summary_json(const rt::RunSummary& r) {
        {{"exterior_used", r.exterior_used},
         {"first_build_error", r.first_build_error.empty() ? json(nullptr) : json(r.first_build_error)},
         {"first_exterior_note", r.first_exterior_note.empty() ? json(nullptr) : json(r.first_exterior_note)}}},
+      {"models", model_records_json(r.models)},
+      {"models_not_recorded", r.models_not_recorded},
       {"notes", r.notes},
   };
+}
+
+json model_records_json(const std::vector<rt::ModelRecord>& models) {
+  json list = json::array();
+  for (const auto& m : models)
+    list.push_back({{"model_id", m.model_id},
+                    {"adopted_s", m.adopted_s},
+                    {"reason", m.reason},
+                    {"contact_point_m", vector_json(m.contact_point_m)},
+                    {"direction", vector_json(m.direction)},
+                    {"tool_stiffness_N_per_m", matrix_json(m.tool_stiffness_N_per_m)},
+                    {"load_force_N", vector_json(m.load_force_N)},
+                    {"exterior_used", m.exterior_used},
+                    {"node_count", m.node_count},
+                    {"build_s", m.build_s}});
+  return list;
 }
 
 std::string summary_text(const rt::RunSummary& r) {
@@ -218,6 +236,11 @@ geometry::TriangleSurface load_organ(const SimScene& scene, const std::string& o
 
 }  // namespace
 
+std::string scene_organ_file(const SimScene& scene, const std::string& output_directory) {
+  if (!scene.surface_path.empty()) return scene.surface_path;
+  return (fs::path(output_directory) / generated_organ_cache_name(scene.generated_organ)).string();
+}
+
 json run_sim(const SimScene& scene_in, const SimOptions& options) {
   SimScene scene = scene_in;
   rt::SceneSettings& s = scene.settings;
@@ -336,19 +359,21 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   long long forces_written = 0;
   if (s.record_force_history) {
     forces_csv = std::make_unique<AtomicFileWriter>((fs::path(out) / "forces.csv").string());
-    forces_csv->append("time_s,tip_x_m,tip_y_m,tip_z_m,force_x_N,force_y_N,force_z_N,exact_x_N,exact_y_N,exact_z_N,in_contact\n");
+    forces_csv->append("time_s,tip_x_m,tip_y_m,tip_z_m,force_x_N,force_y_N,force_z_N,exact_x_N,exact_y_N,exact_z_N,in_contact,model_id\n");
     simulation.stream_force_history([&](const std::vector<rt::ForceSample>& chunk) {
       std::string text;
       text.reserve(chunk.size() * 200);
       char line[400];
       for (const auto& f : chunk) {
-        const int n = std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", f.time_s,
+        const int n = std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%llu\n", f.time_s,
                                     f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), f.force_on_hand_N.x(), f.force_on_hand_N.y(),
-                                    f.force_on_hand_N.z(), -f.exact_N.x(), -f.exact_N.y(), -f.exact_N.z(), f.in_contact ? 1 : 0);
+                                    f.force_on_hand_N.z(), -f.exact_N.x(), -f.exact_N.y(), -f.exact_N.z(), f.in_contact ? 1 : 0,
+                                    static_cast<unsigned long long>(f.model_id));
         text.append(line, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof line) - 1)));
       }
       forces_csv->append(text);
       forces_written += static_cast<long long>(chunk.size());
+      if (options.force_history_observer) options.force_history_observer(chunk);
     });
   }
   if (options.print)

@@ -237,12 +237,26 @@ class ShortReports(unittest.TestCase):
         self.assertIn("Largest force %.4g N" % summary["forces"]["max_force_N"], md)
 
 
+    def test_replay(self):
+        results = load("replay_results.json")
+        md = self.render("replay", "replay_results.json")
+        self.assertIn("| force error, RMS over the contacts of each contact's relative L2 | %.2f %% |"
+                      % (100 * results["summary"]["force_error_rms_over_contacts"]), md)
+        for c in results["contacts"]:
+            cells = row_cells(md, "| %s | %s |" % (c["label"], c["reason"]))
+            self.assertEqual(cells[5], "%.4f" % c["axial_stiffness_mfs_N_per_m"])
+            self.assertEqual(cells[6], "%.4f" % c["axial_stiffness_reference_N_per_m"])
+            self.assertEqual(cells[7], "%.2f %%" % (100 * c["stiffness_error"]))
+            self.assertEqual(cells[9], "%.3f %%" % (100 * c["reference_convergence"]["relative_uncertainty"]))
+        self.assertIn("![force over time](force_over_time.png)", md)
+
+
 class Failures(unittest.TestCase):
     def test_missing_results_exit_2_naming_the_file(self):
         out = pathlib.Path(tempfile.mkdtemp(prefix="touchstone_reports_test_"))
         self.addCleanup(shutil.rmtree, out, True)
         for kind, name in (("study", "results.json"), ("collision", "results.json"), ("fem", "results.json"),
-                           ("mfs", "results.json"), ("sim", "summary.json")):
+                           ("mfs", "results.json"), ("sim", "summary.json"), ("replay", "results.json")):
             with self.subTest(kind=kind):
                 run = run_report(kind, out)
                 self.assertEqual(run.returncode, 2, run.stderr)

@@ -1,5 +1,6 @@
 """B4 run serially and under mpirun -np 2 (tests/studies/CMakeLists.txt): the same punch radii,
-the same FEM forces (to the CG tolerance's reach, 1e-6 relative) and the same MFS errors.
+the same FEM forces (to the CG tolerance's reach, 1e-6 relative) and the same MFS forces and
+errors, the MFS cases spread over both ranks.
 
 Usage: check_point_tool_runs.py <serial output folder> <np2 output folder>
 """
@@ -33,8 +34,14 @@ def main(serial_dir, parallel_dir):
             assert a["params"]["tip_spacing_m"] == b["params"]["tip_spacing_m"], case_id
             ea, eb = a["error"]["force_rel"], b["error"]["force_rel"]
             assert math.isfinite(ea) and abs(ea - eb) <= 1e-6 * abs(ea), "%s: %r vs %r" % (case_id, ea, eb)
+            # The MFS case itself (seeded sprinkling) is the same on any rank: its force to the bit.
+            assert a["qoi"]["force_N"] == b["qoi"]["force_N"], "%s: %r vs %r" % (case_id, a["qoi"]["force_N"], b["qoi"]["force_N"])
             compared += 1
     assert compared >= 6, "compared only %d cases" % compared
+    # Under mpirun the MFS cases are spread over the ranks (case i on rank i mod 2).
+    assert parallel.get("mfs_ranks") == 2, parallel.get("mfs_ranks")
+    on_rank_1 = [c["id"] for c in parallel["cases"] if c["model"] == "mfs" and c.get("mpi_rank") == 1]
+    assert on_rank_1, "no MFS case ran on rank 1"
     print("serial and np2 agree on %d cases; punch radii %s m" % (compared, radii[0]))
 
 

@@ -175,6 +175,7 @@ bool HapticLoop::tick(double time_s) noexcept {
       s.force_on_hand_N = out;
       s.exact_N = exact;
       s.in_contact = in_contact;
+      s.model_id = state.model_in_use;
     } else {
       ++history_dropped;
     }

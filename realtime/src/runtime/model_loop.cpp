@@ -85,6 +85,22 @@ void ModelLoop::adopt(BuildResult result) {
   snapshot.direction = plain(model->contact.direction);
   snapshot.local_radius_m = sim.local_radius_m();
   snapshot.force_time_s = snapshot.previous_force_time_s = -1;
+  if (records.size() < max_model_records) {
+    static const char* const reasons[] = {"contact", "prebuild", "resprinkle"};
+    ModelRecord& r = records.emplace_back();
+    r.model_id = snapshot.model_id;
+    r.adopted_s = now_s;
+    r.reason = reasons[static_cast<int>(result.request.reason)];
+    r.contact_point_m = model->contact.point;
+    r.direction = model->contact.direction;
+    r.tool_stiffness_N_per_m = model->tool_stiffness_N_per_m;
+    r.load_force_N = model->load_force_N;
+    r.exterior_used = model->exterior_used.empty() ? "none" : model->exterior_used;
+    r.node_count = model->cloud.positions.size();
+    r.build_s = result.build_s;
+  } else {
+    ++records_dropped;
+  }
   if (result.deformation) {
     auto map = std::make_shared<DeformationMap>(*result.deformation);
     map->model_id = snapshot.model_id;
@@ -106,6 +122,7 @@ bool ModelLoop::near_in_flight(const Eigen::Vector3d& point) const {
 }
 
 void ModelLoop::step(double time_s) {
+  now_s = time_s;
   ++work.model_steps;
   collect();
   const HapticState state = sim.haptic_state.load();

@@ -25,6 +25,9 @@ struct ModelLoop {
   std::map<std::string, long long> exterior_used;
   std::string first_build_error;  ///< why the first failed build failed ("" when none did)
   std::string first_exterior_note;  ///< why the first build without its body-aware exterior fell back ("" when none did)
+  std::vector<ModelRecord> records;  ///< every model made current (at most max_model_records)
+  long long records_dropped = 0;
+  double now_s = 0;                  ///< the current step's time [s]
 
   ModelLoop(RuntimeState& sim_, bool synchronous_) : sim(sim_), synchronous(synchronous_) {}
 

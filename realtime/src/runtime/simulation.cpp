@@ -156,6 +156,11 @@ struct Simulation::Impl : RuntimeState {
       summary.exterior_used = model->exterior_used;
       summary.first_build_error = model->first_build_error;
       summary.first_exterior_note = model->first_exterior_note;
+      summary.models = model->records;
+      summary.models_not_recorded = model->records_dropped;
+      if (model->records_dropped > 0)
+        notes.push_back("model records: " + std::to_string(model->records_dropped) + " models beyond the first " +
+                        std::to_string(max_model_records) + " were not recorded");
       if (work.model_build_failures > 0)
         notes.push_back(std::to_string(work.model_build_failures) + " of " + std::to_string(work.model_builds) +
                         " model builds failed (the force stayed on the previous model, or zero); the first: " +

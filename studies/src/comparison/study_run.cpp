@@ -119,11 +119,12 @@ class StudyRun {
       add_fem_cases(doc, "table2_fem/", fe_row_reference, first.problem(), first, cases);
     }
 
-    // Under mpirun every rank takes part in the FEM solves; the MFS cases, the files and the
-    // report are rank 0's.
-    if (fem::MpiSession::rank() != 0) return document;
-    // The organ surfaces first (gmsh, one at a time), then the cases, `jobs` at a time; each
-    // writes only its own folder. Results keep the study's order.
+    // Under mpirun every rank takes part in the FEM solves and runs its share of the MFS cases
+    // (case i on rank i mod K, `jobs` at a time; each case writes only its own folder and
+    // record); rank 0 then reads the others' records and writes the files and the report.
+    const unsigned rank = fem::MpiSession::rank(), ranks = fem::MpiSession::size();
+    // The organ surfaces first (gmsh, one at a time, rank 0), then the cases. Results keep the
+    // study's order.
     struct Job {
       ProblemRun* run;
       const MfsSeries* series;
@@ -135,33 +136,55 @@ class StudyRun {
     for (auto& r : problems_)
       for (std::size_t k = 0; k < r.mfs_cases.size(); ++k) {
         const auto& [series, n] = r.mfs_cases[k];
-        organ_path(series->study);
+        if (rank == 0) organ_path(series->study);
         jobs_list.push_back({&r, series, n, &r.reference_of(k), k});
       }
+    fem::MpiSession::barrier();
     std::vector<json> computed(jobs_list.size());
-    const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(jobs_list.size())));
+    std::vector<std::size_t> mine;
+    for (std::size_t i = rank; i < jobs_list.size(); i += ranks) mine.push_back(i);
+    const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(mine.size())));
     document["mfs_jobs"] = jobs;
+    document["mfs_ranks"] = ranks;
     const auto compute = [&](std::size_t i) {
       const Job& job = jobs_list[i];
       computed[i] = run_mfs_case(*job.run, *job.series, job.n, *job.reference);
     };
-    if (jobs == 1) {
-      for (std::size_t i = 0; i < jobs_list.size(); ++i) compute(i);
-    } else {
-      std::atomic<std::size_t> next{0};
-      std::vector<std::exception_ptr> errors(static_cast<std::size_t>(jobs));
-      std::vector<std::thread> workers;
-      for (int w = 0; w < jobs; ++w)
-        workers.emplace_back([&, w] {
-          try {
-            for (std::size_t i; (i = next.fetch_add(1)) < jobs_list.size();) compute(i);
-          } catch (...) {
-            errors[static_cast<std::size_t>(w)] = std::current_exception();
-          }
-        });
-      for (auto& worker : workers) worker.join();
-      for (const auto& error : errors)
-        if (error) std::rethrow_exception(error);
+    std::string failure;
+    try {
+      if (jobs == 1) {
+        for (const std::size_t i : mine) compute(i);
+      } else {
+        std::atomic<std::size_t> next{0};
+        std::vector<std::exception_ptr> errors(static_cast<std::size_t>(jobs));
+        std::vector<std::thread> workers;
+        for (int w = 0; w < jobs; ++w)
+          workers.emplace_back([&, w] {
+            try {
+              for (std::size_t k; (k = next.fetch_add(1)) < mine.size();) compute(mine[k]);
+            } catch (...) {
+              errors[static_cast<std::size_t>(w)] = std::current_exception();
+            }
+          });
+        for (auto& worker : workers) worker.join();
+        for (const auto& error : errors)
+          if (error) std::rethrow_exception(error);
+      }
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+    // Every rank learns whether any failed before rank 0 reads the others' records.
+    std::vector<double> failed{failure.empty() ? 0.0 : 1.0};
+    fem::MpiSession::sum_over_ranks(failed);
+    if (!failure.empty()) throw std::runtime_error(failure);
+    if (failed[0] != 0) throw std::runtime_error("an MFS case failed on another rank (its message is above)");
+    if (rank != 0) return document;
+    for (std::size_t i = 0; i < jobs_list.size(); ++i) {
+      if (i % ranks == 0) continue;
+      // Written by rank i mod K in this run: its record, not a resumed one.
+      compute(i);
+      computed[i]["resumed"] = false;
+      computed[i]["mpi_rank"] = i % ranks;
     }
     // Each case's predecessor in its series (the next smaller N), for the convergence-in-N flag.
     std::vector<json> previous(jobs_list.size());

@@ -114,6 +114,46 @@ TEST(Simulation, StiffnessForceIsKtTimesTheToolDisplacement) {
   EXPECT_GT(compared, 500);
 }
 
+// Every model made current is recorded (c, d, K_t, why), and every tick with a force names its
+// model: exact_N is that record's K_t (tip − c), push-only — what a replay through the reference
+// FEM needs to pair each tick with the reference at the same contact.
+TEST(Simulation, EveryTickNamesTheModelRecordItsForceCameFrom) {
+  const auto path = haptics::make_palpation_trajectory(sphere_organ(), palpation(9.0));
+  auto device = scripted(path);
+  Simulation simulation(sphere_organ(), fast_scene(), device.get(), {});
+  const RunSummary run = simulation.run_virtual();
+  ASSERT_GE(run.models.size(), 2u);
+  EXPECT_EQ(run.models_not_recorded, 0);
+  EXPECT_EQ(static_cast<long long>(run.models.size()), run.work.model_builds - run.work.model_build_failures);
+  for (std::size_t i = 0; i < run.models.size(); ++i) {
+    const ModelRecord& m = run.models[i];
+    EXPECT_EQ(m.model_id, i + 1);
+    EXPECT_TRUE(m.reason == "contact" || m.reason == "prebuild" || m.reason == "resprinkle") << m.reason;
+    EXPECT_NEAR(m.direction.norm(), 1.0, 1e-12);
+    EXPECT_NEAR(m.contact_point_m.norm(), 0.04, 1e-3) << "on the sphere organ";
+    EXPECT_GT(m.direction.dot(m.tool_stiffness_N_per_m * m.direction), 0.0);
+    EXPECT_GT(m.node_count, 0u);
+    if (i > 0) {
+      EXPECT_GE(m.adopted_s, run.models[i - 1].adopted_s);
+    }
+  }
+  int named = 0;
+  for (const ForceSample& s : run.force_history) {
+    if (s.model_id == 0) {
+      EXPECT_EQ(s.exact_N.norm(), 0.0) << "t = " << s.time_s;
+      continue;
+    }
+    ASSERT_LE(s.model_id, run.models.size());
+    const ModelRecord& m = run.models[s.model_id - 1];
+    EXPECT_LE(m.adopted_s, s.time_s);
+    const Eigen::Vector3d expected =
+        push_only(m.tool_stiffness_N_per_m * (s.tip_m - m.contact_point_m) + m.load_force_N, m.direction);
+    EXPECT_LE((s.exact_N - expected).norm(), 1e-12 * (1 + expected.norm())) << "t = " << s.time_s;
+    ++named;
+  }
+  EXPECT_GT(named, 1000);
+}
+
 TEST(Simulation, StudyModeIsBitReproducible) {
   const auto path = haptics::make_palpation_trajectory(sphere_organ(), palpation(6.0));
   SceneSettings scene = fast_scene();

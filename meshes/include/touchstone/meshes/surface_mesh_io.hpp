@@ -28,6 +28,7 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace touchstone::meshes {
@@ -115,6 +116,9 @@ struct SurfaceWriteOptions {
   double unit_scale = 1.0;
   /// STL only: ASCII instead of binary. (STL stores 32-bit floats either way.)
   bool ascii_stl = false;
+  /// .vtp and .vtk only: named vector fields, one value per vertex (e.g. displacements [m], for
+  /// ParaView's Warp By Vector); written as they are, not scaled by unit_scale.
+  std::vector<std::pair<std::string, std::vector<Eigen::Vector3d>>> point_vectors;
 
   /// Throws std::invalid_argument naming the offending field and value.
   void validate() const;
@@ -124,7 +128,7 @@ struct SurfaceWriteOptions {
 /// points), .vtk (legacy binary, doubles), .stl (binary or ASCII, floats), .obj (17 significant
 /// digits), .msh (MSH 2.2 ASCII, 17 digits, one physical surface group "surface" with tag 1).
 /// Everything but STL round-trips exactly. Throws std::invalid_argument for an unsupported
-/// extension or an index out of range, std::runtime_error naming the path when writing fails.
+/// extension, an index out of range, or point vectors on another format or of the wrong length, std::runtime_error naming the path when writing fails.
 void write_surface_mesh(const std::string& path, const std::vector<Eigen::Vector3d>& vertices,
                         const std::vector<Eigen::Vector3i>& triangles, const SurfaceWriteOptions& options = {});
 

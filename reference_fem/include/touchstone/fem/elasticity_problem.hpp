@@ -137,6 +137,9 @@ class MpiSession {
   /// Every rank receives rank 0's `values` (sizes may differ on entry). For inputs only rank 0
   /// can compute, e.g. from files it alone writes.
   static void broadcast_from_root(std::vector<double>& values);
+  /// Every rank receives the element-wise sum of all ranks' `values` (same size on every rank):
+  /// how ranks that each computed their own share of a list put it together.
+  static void sum_over_ranks(std::vector<double>& values);
 
  private:
   struct Impl;

@@ -14,6 +14,8 @@
 
 #include <Eigen/Core>
 
+#include <vector>
+
 namespace touchstone::fem {
 
 struct ToolStiffness {
@@ -24,6 +26,10 @@ struct ToolStiffness {
   unsigned int solves = 0;               ///< 3 bonded, 1 frictionless
   std::size_t dof_count = 0;
   double seconds = 0;                    ///< wall time of the solves
+  /// Per probe of the problem: the displacement there per tool displacement, u_p = D_p U
+  /// (frictionless: rank one, like K); `probe_found` false where no cell holds the point.
+  std::vector<Eigen::Matrix3d> probe_displacement_per_displacement;
+  std::vector<bool> probe_found;
 
   /// F = K U [N] for the tool displacement U [m].
   Eigen::Vector3d force_N(const Eigen::Vector3d& tool_displacement_m) const {
@@ -31,9 +37,10 @@ struct ToolStiffness {
   }
 };
 
-/// Solves `problem` (its punch gives the contact condition, the axis d and the unit depth δ;
-/// probes and VTU output are dropped) once per unit displacement and returns K. Collective on
-/// `communicator`; throws what solve_elasticity throws.
+/// Solves `problem` (its punch gives the contact condition, the axis d and the unit depth δ)
+/// once per unit displacement and returns K, and D_p at the problem's probes. A VTU directory
+/// gets the unit fields: `<basename>` for the frictionless push δ d, `<basename>_x`, `_y`, `_z`
+/// for the bonded δ e_i. Collective on `communicator`; throws what solve_elasticity throws.
 ToolStiffness solve_tool_stiffness(const ElasticityProblem& problem, MPI_Comm communicator = MPI_COMM_WORLD);
 
 }  // namespace touchstone::fem

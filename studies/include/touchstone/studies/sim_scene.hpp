@@ -13,8 +13,10 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace touchstone::studies {
 
@@ -73,11 +75,18 @@ struct SimOptions {
   std::string screenshot_path;         ///< overrides the scene's
   const std::atomic<bool>* stop = nullptr;  ///< Ctrl-C
   bool print = true;
+  /// Also handed every chunk of the force history as forces.csv receives it (the palpation
+  /// replay reads the run this way); null: none.
+  std::function<void(const std::vector<realtime::runtime::ForceSample>&)> force_history_observer;
 };
 
 /// The file name a generated organ is cached under in the output folder: shape, triangle count
 /// and a hash of every parameter, so that a changed parameter generates a new organ.
 std::string generated_organ_cache_name(const meshes::OrganParameters& organ);
+
+/// The organ's surface file as run_sim reads it: the scene's surface, or the generated organ
+/// cached in `output_directory` (written by run_sim there).
+std::string scene_organ_file(const SimScene& scene, const std::string& output_directory);
 
 /// Runs the scene and writes <out>/summary.json (and forces.csv, the time series, the
 /// recording). Returns the summary document.
@@ -85,6 +94,9 @@ nlohmann::json run_sim(const SimScene& scene, const SimOptions& options);
 
 /// The run summary as JSON (the loops, safety, prediction and work counters, force statistics).
 nlohmann::json summary_json(const realtime::runtime::RunSummary& summary);
+
+/// The models a run made current (RunSummary::models), one object each: c, d, K_t, why and how.
+nlohmann::json model_records_json(const std::vector<realtime::runtime::ModelRecord>& models);
 
 /// The run summary as a few lines of text.
 std::string summary_text(const realtime::runtime::RunSummary& summary);

@@ -39,6 +39,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -135,6 +136,26 @@ struct ForceSample {
   Eigen::Vector3d force_on_hand_N = Eigen::Vector3d::Zero();  ///< after the safety filter
   Eigen::Vector3d exact_N = Eigen::Vector3d::Zero();          ///< K_t U of the current model (on the tissue)
   bool in_contact = false;
+  std::uint64_t model_id = 0;  ///< the model (ModelRecord::model_id) whose K_t gave exact_N; 0: none
+};
+
+/// The run keeps at most this many model records; later models are counted, not recorded.
+inline constexpr std::size_t max_model_records = std::size_t(1) << 16;
+
+/// One local model the model loop made current: where it was built, what it gives and how. A
+/// replay of the run through the reference FEM solves the same contacts (c, d) and compares
+/// its tool stiffness with K_t, tick by tick through ForceSample::model_id.
+struct ModelRecord {
+  std::uint64_t model_id = 0;     ///< 1, 2, …: ModelSnapshot::model_id
+  double adopted_s = 0;           ///< run time at which the model became current [s]
+  std::string reason;             ///< "contact", "prebuild" (at the predicted point), "resprinkle"
+  Eigen::Vector3d contact_point_m = Eigen::Vector3d::Zero();  ///< c
+  Eigen::Vector3d direction = -Eigen::Vector3d::UnitZ();      ///< d, unit, into the organ
+  Eigen::Matrix3d tool_stiffness_N_per_m = Eigen::Matrix3d::Zero();  ///< K_t
+  Eigen::Vector3d load_force_N = Eigen::Vector3d::Zero();     ///< F_loads
+  std::string exterior_used;      ///< enriched: "clamped", "half_space", "body_aware"; else "none"
+  std::size_t node_count = 0;
+  double build_s = 0;             ///< wall time of the build [s]
 };
 
 /// Work done and skipped: a scene skips the work it doesn't need, and these counters show it.
@@ -198,6 +219,9 @@ struct RunSummary {
   WorkCounters work;
   ForceStatistics forces;
   std::vector<ForceSample> force_history;  ///< when SceneSettings::record_force_history
+  /// Every model made current, in order (at most max_model_records; the rest are counted).
+  std::vector<ModelRecord> models;
+  long long models_not_recorded = 0;
   /// Successful model builds by the exterior the model used ("none" outside the enriched model).
   std::map<std::string, long long> exterior_used;
   std::string first_build_error;  ///< why the first failed model build failed ("" when none did)

@@ -1,0 +1,157 @@
+// The palpation replay (studies/palpation_replay.hpp) on a small palpation of a hemisphere
+// (tiny_scene.toml, tiny_replay.toml): the reader's named errors, the run's refusals of input
+// that cannot be verified, and a run's own consistency — every verified tick's reference force
+// is K_ref (tip − c) of its contact, K_ref's axial entry is the FEM's own (Richardson aside), and
+// the real-time model rebuilt at a contact gives the run's K_t bit for bit.
+#include "touchstone/studies/palpation_replay.hpp"
+
+#include "support/temporary_directory.hpp"
+#include "touchstone/studies/output_files.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace touchstone::studies {
+namespace {
+
+const std::string replay_folder = std::string(TOUCHSTONE_SOURCE_DIR) + "/tests/studies/replay";
+
+/// The tiny replay study with `extra` appended and every path absolute.
+std::string study_text(const std::string& extra, const std::string& organ_table = R"([organ]
+attachment_plane_point = [0, 0, 0]
+attachment_plane_normal = [0, 0, 1]
+)") {
+  return "study = \"tiny_replay\"\n[replay]\nscene = \"" + replay_folder + "/tiny_scene.toml\"\n" + extra + "\n" +
+         organ_table + "[mesh]\nedge_size = \"1.25 mm\"\nmax_size = \"20 mm\"\nlevels = 2\n";
+}
+
+PalpationReplayStudy read_text(const std::string& text) {
+  ConfigTable config = ConfigTable::from_string(text, "replay.toml");
+  return read_palpation_replay_study(config);
+}
+
+void expect_config_error(const std::string& text, const std::string& fragment) {
+  try {
+    read_text(text);
+    ADD_FAILURE() << "accepted; expected an error naming " << fragment;
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+TEST(PalpationReplayStudy, ReaderNamesTheBadKey) {
+  expect_config_error(study_text("", ""), "attachment");                         // no attachment rule
+  expect_config_error(study_text("contacts = \"frames\""), "frame");             // frames without times
+  expect_config_error(study_text("contacts = \"every\"\nevery = 0"), "every");
+  expect_config_error(study_text("contacts = \"some\""), "contacts");
+  expect_config_error(study_text("duration = \"-1 s\""), "duration");
+  expect_config_error(study_text("speed = 3"), "speed");                          // unknown key
+  expect_config_error("study = \"x\"\n[replay]\nscene = \"missing.toml\"\n", "scene");
+  const PalpationReplayStudy study = read_text(study_text("contacts = \"every\"\nevery = 2"));
+  EXPECT_EQ(study.selection, ContactSelection::every);
+  EXPECT_EQ(study.every, 2);
+  EXPECT_EQ(study.levels, 2);
+  EXPECT_DOUBLE_EQ(study.edge_size_m, 1.25e-3);
+}
+
+TEST(PalpationReplayStudy, ResolvedConfigReadsBackTheSameStudy) {
+  const PalpationReplayStudy study = read_text(study_text("contacts = \"frames\"\nframes = [\"2.5 s\", \"3 s\"]"));
+  const PalpationReplayStudy again = read_text(resolved_palpation_replay_toml(study));
+  EXPECT_EQ(palpation_replay_params(again), palpation_replay_params(study));
+}
+
+/// Runs the replay on `text` and returns its error message ("" when it ran).
+std::string run_error(const std::string& text, const std::string& out) {
+  PalpationReplayStudy study = read_text(text);
+  study.config_path = "replay.toml";
+  ReplayRunOptions options;
+  options.output_directory = out;
+  options.cache_directory.clear();
+  options.quiet = true;
+  try {
+    run_palpation_replay(study, options);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(PalpationReplayRun, RefusesInputItCannotVerifyWithANamedError) {
+  touchstone::testing::TemporaryDirectory directory("replay_errors");
+  // A recording far from the organ (made on another organ, or in millimetres): no contact.
+  const std::string far = directory.file("far.csv",
+                                         "time_s,x_m,y_m,z_m,qw,qx,qy,qz,connected,fx_N,fy_N,fz_N\n"
+                                         "0,10,10,10,1,0,0,0,1,0,0,0\n"
+                                         "1,10,10,10.001,1,0,0,0,1,0,0,0\n"
+                                         "2,10,10,10,1,0,0,0,1,0,0,0\n");
+  const std::string never = run_error(study_text("recording = \"" + far + "\""), directory.path("far"));
+  EXPECT_NE(never.find("never presses the organ"), std::string::npos) << never;
+  EXPECT_NE(never.find(far), std::string::npos) << never;
+
+  // A rim size the scene's tool cannot take (edge a at the rim: at most a/2), before the run.
+  std::string coarse = study_text("");
+  coarse.replace(coarse.find("1.25 mm"), 7, "2.5 mm");
+  const std::string mesh = run_error(coarse, directory.path("mesh"));
+  EXPECT_NE(mesh.find("[mesh]"), std::string::npos) << mesh;
+  EXPECT_NE(mesh.find("edge_size"), std::string::npos) << mesh;
+  EXPECT_FALSE(std::filesystem::exists(directory.path("mesh") + "/realtime")) << "refused before the real-time run";
+
+  // A frame at which the tool does not press.
+  const std::string frame = run_error(study_text("contacts = \"frames\"\nframes = [\"0.1 s\"]"), directory.path("frame"));
+  EXPECT_NE(frame.find("replay.frames"), std::string::npos) << frame;
+
+  // An attachment that selects no triangle of the organ: the mesher's named error, per contact.
+  const std::string held = run_error(study_text("", R"([organ]
+attachment_plane_point = [0, 0, -1]
+attachment_plane_normal = [0, 0, 1]
+)"),
+                                     directory.path("held"));
+  EXPECT_NE(held.find("attachment"), std::string::npos) << held;
+  EXPECT_NE(held.find("model1"), std::string::npos) << "the error names the contact: " << held;
+}
+
+TEST(PalpationReplayRun, EveryTickComparesWithItsContactsStiffness) {
+  touchstone::testing::TemporaryDirectory directory("replay_run");
+  PalpationReplayStudy study = read_text(study_text(""));
+  ReplayRunOptions options;
+  options.output_directory = directory.path("out");
+  options.cache_directory.clear();
+  options.quiet = true;
+  const nlohmann::json results = run_palpation_replay(study, options);
+  const auto& contacts = results.at("contacts");
+  ASSERT_GE(contacts.size(), 2u) << "a press and a slide beyond L/4: a prebuilt model and a re-sprinkle";
+  EXPECT_EQ(results.at("summary").at("rebuilt_stiffness_mismatch_max").get<double>(), 0.0);
+  long long ticks = 0;
+  for (const auto& c : contacts) {
+    ticks += c.at("frames").get<long long>();
+    // The axial stiffness of two levels without Richardson: the finer level's, exactly.
+    const auto& levels = c.at("reference_levels");
+    ASSERT_EQ(levels.size(), 2u);
+    Eigen::Matrix3d k;
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) k(r, col) = levels.back().at("stiffness_N_per_m").at(r).at(col).get<double>();
+    const Eigen::Vector3d d(c.at("direction").at(0).get<double>(), c.at("direction").at(1).get<double>(),
+                            c.at("direction").at(2).get<double>());
+    EXPECT_NEAR(c.at("axial_stiffness_reference_N_per_m").get<double>(), d.dot(k * d), 1e-12 * d.dot(k * d));
+    // A frictionless tool: K = k d dᵀ-like, rank one along d (the force follows the push only).
+    EXPECT_LT((k - k * d * d.transpose()).norm(), 1e-12 * k.norm()) << c.at("label");
+    // The reference's own error estimate is reported (two levels: their difference).
+    EXPECT_GT(c.at("reference_convergence").at("relative_uncertainty").get<double>(), 0.0);
+    EXPECT_GT(c.at("displacement_vertices_found").get<long long>(), c.at("displacement_vertices").get<long long>() * 3 / 4);
+    EXPECT_TRUE(std::filesystem::exists(options.output_directory + "/" + c.at("paraview_surface").get<std::string>()));
+  }
+  EXPECT_EQ(ticks, results.at("summary").at("verified_frames").get<long long>());
+  EXPECT_EQ(ticks, results.at("realtime").at("frames_with_model").get<long long>()) << "contacts = all verifies every tick";
+  EXPECT_TRUE(std::filesystem::exists(options.output_directory + "/paraview/contacts.pvd"));
+  // The hemisphere held at its base, pressed near the top by the half-space-exterior model: the
+  // forces agree within what the coarse two-level reference can tell (its uncertainty), plus the
+  // model's known −4 % of the half-space exterior on this body.
+  const double uncertainty = results.at("summary").at("reference_uncertainty_max").get<double>();
+  EXPECT_LT(results.at("summary").at("force_error_l2").get<double>(), 0.04 + 2 * uncertainty);
+}
+
+}  // namespace
+}  // namespace touchstone::studies
