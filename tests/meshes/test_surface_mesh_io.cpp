@@ -7,6 +7,11 @@
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <vtkNew.h>
+#include <vtkPolyData.h>
+#include <vtkDataArray.h>
+#include <vtkPointData.h>
+#include <vtkXMLPolyDataReader.h>
 
 #include <array>
 #include <cmath>
@@ -601,6 +606,32 @@ TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
     const std::string path = directory.path(std::string("no/such/dir/") + name);
     EXPECT_THROW(write_surface_mesh(path, mesh.vertices, mesh.triangles), std::runtime_error) << name;
   }
+}
+
+// Point vectors (e.g. the displacements the palpation replay writes for ParaView) go to the VTK
+// formats only, one per vertex, and come back from the file unchanged.
+TEST(SurfaceMeshIo, PointVectorsAreWrittenToVtpAndRefusedElsewhere) {
+  const TemporaryDirectory directory("surface_io");
+  const TriangleMeshData mesh = sphere();
+  std::vector<Vector3d> field(mesh.vertices.size());
+  for (std::size_t i = 0; i < field.size(); ++i) field[i] = Vector3d(1e-3 * double(i), -2.0 * double(i), 0.5);
+  SurfaceWriteOptions options;
+  options.point_vectors = {{"displacement_m", field}};
+  const std::string vtp = directory.path("field.vtp");
+  write_surface_mesh(vtp, mesh.vertices, mesh.triangles, options);
+  vtkNew<vtkXMLPolyDataReader> reader;
+  reader->SetFileName(vtp.c_str());
+  reader->Update();
+  vtkDataArray* array = reader->GetOutput()->GetPointData()->GetArray("displacement_m");
+  ASSERT_NE(array, nullptr);
+  ASSERT_EQ(array->GetNumberOfTuples(), static_cast<vtkIdType>(field.size()));
+  for (std::size_t i = 0; i < field.size(); ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(array->GetComponent(static_cast<vtkIdType>(i), k), field[i][k]);
+  expect_invalid_argument([&] { write_surface_mesh(directory.path("field.stl"), mesh.vertices, mesh.triangles, options); },
+                          {"field.stl", "point vectors"});
+  options.point_vectors[0].second.pop_back();
+  expect_invalid_argument([&] { write_surface_mesh(directory.path("short.vtp"), mesh.vertices, mesh.triangles, options); },
+                          {"short.vtp", "displacement_m", "values for"});
 }
 
 }  // namespace

@@ -173,17 +173,21 @@ class StudyRun {
     } catch (const std::exception& e) {
       failure = e.what();
     }
-    // Every rank learns whether any failed before rank 0 reads the others' records.
-    std::vector<double> failed{failure.empty() ? 0.0 : 1.0};
-    fem::MpiSession::sum_over_ranks(failed);
+    // Every rank learns whether any failed (entry 0) and which of its cases it resumed from an
+    // earlier run's record (entry 1 + i) before rank 0 reads the others' records.
+    std::vector<double> shared(1 + jobs_list.size(), 0.0);
+    shared[0] = failure.empty() ? 0.0 : 1.0;
+    if (failure.empty())
+      for (const std::size_t i : mine) shared[1 + i] = computed[i].value("resumed", false) ? 1.0 : 0.0;
+    fem::MpiSession::sum_over_ranks(shared);
     if (!failure.empty()) throw std::runtime_error(failure);
-    if (failed[0] != 0) throw std::runtime_error("an MFS case failed on another rank (its message is above)");
+    if (shared[0] != 0) throw std::runtime_error("an MFS case failed on another rank (its message is above)");
     if (rank != 0) return document;
     for (std::size_t i = 0; i < jobs_list.size(); ++i) {
       if (i % ranks == 0) continue;
-      // Written by rank i mod K in this run: its record, not a resumed one.
+      // Rank i mod K ran or resumed it; rank 0 reads the record that rank left.
       compute(i);
-      computed[i]["resumed"] = false;
+      computed[i]["resumed"] = shared[1 + i] != 0;
       computed[i]["mpi_rank"] = i % ranks;
     }
     // Each case's predecessor in its series (the next smaller N), for the convergence-in-N flag.

@@ -374,6 +374,9 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
       const auto sim_start = std::chrono::steady_clock::now();
       realtime_summary = run_sim(scene, sim);
       realtime_seconds = seconds_since(sim_start);
+      if (frames.size() >= rt::max_force_history_samples)
+        throw std::invalid_argument("the run pressed for more than " + std::to_string(rt::max_force_history_samples) +
+                                    " ticks, more than a replay keeps: shorten [replay] duration");
       if (frames.empty())
         throw std::invalid_argument(
             (study.recording_path.empty() ? "the scene's device (" + study.scene_path + ")" : "the recording '" + study.recording_path + "'") +

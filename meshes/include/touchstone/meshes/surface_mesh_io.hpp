@@ -128,7 +128,8 @@ struct SurfaceWriteOptions {
 /// points), .vtk (legacy binary, doubles), .stl (binary or ASCII, floats), .obj (17 significant
 /// digits), .msh (MSH 2.2 ASCII, 17 digits, one physical surface group "surface" with tag 1).
 /// Everything but STL round-trips exactly. Throws std::invalid_argument for an unsupported
-/// extension, an index out of range, or point vectors on another format or of the wrong length, std::runtime_error naming the path when writing fails.
+/// extension, an index out of range, or point vectors on another format or of the wrong length;
+/// std::runtime_error naming the path when writing fails.
 void write_surface_mesh(const std::string& path, const std::vector<Eigen::Vector3d>& vertices,
                         const std::vector<Eigen::Vector3i>& triangles, const SurfaceWriteOptions& options = {});
 
