@@ -8,7 +8,9 @@
 #include <Eigen/Geometry>
 #include <vtkAlgorithm.h>
 #include <vtkCellArray.h>
+#include <vtkBase64Utilities.h>
 #include <vtkCommand.h>
+#include <vtkDataArray.h>
 #include <vtkExecutive.h>
 #include <vtkIdList.h>
 #include <vtkLogger.h>
@@ -24,6 +26,8 @@
 #include <vtkSTLReader.h>
 #include <vtkSTLWriter.h>
 #include <vtkSmartPointer.h>
+#include <vtkObjectFactory.h>
+#include <vtkXMLDataElement.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 #include <vtksys/SystemTools.hxx>
@@ -39,6 +43,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <iterator>
 #include <limits>
 #include <mutex>
 #include <new>
@@ -368,59 +374,217 @@ class LegacyCellLists {
   std::size_t at_ = 0;
 };
 
+/// The integer value of attribute `name` in the XML start tag `tag` (either quote), or false
+/// when it is absent or not a non-negative integer (the XML reader then says what is wrong).
+bool xml_count_attribute(const std::string& tag, const std::string& name, unsigned long long& value) {
+  for (std::size_t at = tag.find(name); at != std::string::npos; at = tag.find(name, at + 1)) {
+    if (at == 0 || !std::isspace(static_cast<unsigned char>(tag[at - 1]))) continue;
+    std::size_t k = at + name.size();
+    while (k < tag.size() && std::isspace(static_cast<unsigned char>(tag[k]))) ++k;
+    if (k >= tag.size() || tag[k] != '=') continue;
+    ++k;
+    while (k < tag.size() && std::isspace(static_cast<unsigned char>(tag[k]))) ++k;
+    if (k >= tag.size() || (tag[k] != '"' && tag[k] != '\'')) continue;
+    ++k;
+    const auto [stop, error] = std::from_chars(tag.data() + k, tag.data() + tag.size(), value);
+    return error == std::errc() && stop != tag.data() + k;
+  }
+  return false;
+}
+
+/// zlib, VTK's default compressor, shrinks data by at most 1032:1: a VTK XML file that declares
+/// more than this many bytes of values per byte of file holds a corrupt count, not a surface.
+constexpr double kMaxXmlBytesPerFileByte = 1100;
+
+/// Compressed VTK XML data starts with a header of [block count, block size, last block size,
+/// compressed size of each block], and VTK allocates the per-block sizes before it reads them:
+/// a corrupt block count claims gigabytes. Each array's count is checked against the bytes its
+/// header can occupy, inline (base64 after the tag) or at its offset in the appended data.
+class CompressedBlockCounts {
+ public:
+  CompressedBlockCounts(const std::string& path, const std::string& text) : path_(path), text_(text) {}
+
+  void read_file_attributes(const std::string& tag) {
+    compressed_ = tag.find("compressor=") != std::string::npos;
+    word_ = tag.find("UInt64") != std::string::npos ? 8 : 4;  // header_type; VTK's default is UInt32
+    big_endian_ = tag.find("BigEndian") != std::string::npos;
+  }
+
+  /// A DataArray start tag whose content begins at `content`.
+  void check_array(const std::string& tag, std::size_t content, int piece) {
+    if (!compressed_) return;
+    if (tag.find("\"binary\"") != std::string::npos || tag.find("'binary'") != std::string::npos) {
+      const std::size_t stop = std::min(text_.find('<', content), text_.size());
+      check(content, stop, true, "an inline compressed DataArray of piece " + std::to_string(piece));
+    } else if (unsigned long long offset = 0; xml_count_attribute(tag, "offset", offset)) {
+      appended_.push_back({offset, piece});
+    }
+  }
+
+  /// The AppendedData element starting at `at`; the data follows its '_'.
+  void check_appended(std::size_t at) {
+    if (!compressed_) return;
+    const std::size_t tag_end = text_.find('>', at);
+    if (tag_end == std::string::npos) return;
+    const std::string tag = text_.substr(at, tag_end - at);
+    const bool base64 = tag.find("\"base64\"") != std::string::npos || tag.find("'base64'") != std::string::npos;
+    const std::size_t underscore = text_.find('_', tag_end);
+    if (underscore == std::string::npos) return;
+    for (const auto& [offset, piece] : appended_) {
+      if (offset >= text_.size() - underscore - 1) continue;  // VTK says the offset is wrong
+      check(underscore + 1 + static_cast<std::size_t>(offset), text_.size(), base64,
+            "an appended compressed DataArray of piece " + std::to_string(piece));
+    }
+  }
+
+ private:
+  void check(std::size_t from, std::size_t stop, bool base64, const std::string& what) const {
+    while (from < stop && std::isspace(static_cast<unsigned char>(text_[from]))) ++from;
+    unsigned char word[9] = {};
+    if (base64) {
+      const std::size_t characters = word_ == 8 ? 12 : 8;
+      if (stop - from < characters) return;
+      const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
+          reinterpret_cast<const unsigned char*>(text_.data() + from), characters, word, sizeof word);
+      if (decoded < word_) return;
+    } else {
+      if (stop - from < word_) return;
+      std::memcpy(word, text_.data() + from, word_);
+    }
+    unsigned long long count = 0;
+    for (std::size_t b = 0; b < word_; ++b) {
+      const std::size_t byte = big_endian_ ? b : word_ - 1 - b;
+      count = (count << 8) | word[byte];
+    }
+    // Every block's compressed size is a header word; base64 stores 3 bytes in 4 characters.
+    const long double available = static_cast<long double>(stop - from) * (base64 ? 0.75L : 1.0L);
+    if (static_cast<long double>(count) * static_cast<long double>(word_) > available) {
+      fail(path_, "corrupt file: " + what + " declares " + std::to_string(count) +
+                      " compressed blocks, more block sizes than its data holds");
+    }
+  }
+
+  const std::string& path_;
+  const std::string& text_;
+  bool compressed_ = false;
+  std::size_t word_ = 4;
+  bool big_endian_ = false;
+  std::vector<std::pair<unsigned long long, int>> appended_;  // (offset, piece)
+};
+
+/// The XML reader allocates, before it reads a value, every piece's NumberOfPoints coordinates
+/// and an offset per declared cell, and for every data array NumberOfComponents values per tuple
+/// of its piece. Their sum is checked against what the file can hold. It overestimates (a data
+/// array counts the largest of its piece's counts, and the coordinates count twice, with the piece
+/// and with its Points array); real surfaces compress by a few to one, far inside the bound.
+void check_xml_declared_sizes(const std::string& path, std::uintmax_t size) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  // Raw appended data follows this tag; it holds bytes, not tags.
+  const std::size_t appended_data = text.find("<AppendedData");
+  const std::size_t tags_end = appended_data == std::string::npos ? text.size() : appended_data;
+  CompressedBlockCounts blocks{path, text};
+  const long double limit = kMaxXmlBytesPerFileByte * static_cast<long double>(size);
+  long double declared = 0;
+  unsigned long long piece_points = 0;
+  unsigned long long piece_cells = 0;
+  int piece = 0;
+  const auto refuse = [&](const std::string& what) {
+    fail(path, "corrupt file: " + what + "; the whole file declares more data than its " + std::to_string(size) +
+                   " bytes can hold");
+  };
+  for (std::size_t at = text.find('<'); at < tags_end; at = text.find('<', at + 1)) {
+    const std::size_t end = text.find('>', at);
+    if (end == std::string::npos) break;
+    const std::string tag = text.substr(at, end - at);
+    at = end;
+    const auto is = [&](const char* element) {
+      const std::size_t n = std::strlen(element);
+      return tag.compare(1, n, element) == 0 && tag.size() > n + 1 && std::isspace(static_cast<unsigned char>(tag[n + 1]));
+    };
+    if (is("VTKFile")) {
+      blocks.read_file_attributes(tag);
+    } else if (is("Piece")) {
+      ++piece;
+      piece_points = 0;
+      piece_cells = 0;
+      (void)xml_count_attribute(tag, "NumberOfPoints", piece_points);
+      // One offset per cell and one more per cell kind.
+      long double cells = 0;
+      long double offsets = 0;
+      for (const char* kind : {"NumberOfVerts", "NumberOfLines", "NumberOfStrips", "NumberOfPolys"}) {
+        unsigned long long count = 0;
+        if (!xml_count_attribute(tag, kind, count)) continue;
+        cells += static_cast<long double>(count);
+        offsets += static_cast<long double>(count) + 1;
+      }
+      piece_cells = cells > 1.8e19L ? ~0ULL : static_cast<unsigned long long>(cells);
+      declared += 24.0L * static_cast<long double>(piece_points) + 8.0L * offsets;
+      if (declared > limit) {
+        refuse("piece " + std::to_string(piece) + " declares " + std::to_string(piece_points) + " points and " +
+               std::to_string(piece_cells) + " cells");
+      }
+    } else if (is("DataArray")) {
+      unsigned long long components = 1;
+      unsigned long long tuples = 0;
+      (void)xml_count_attribute(tag, "NumberOfComponents", components);
+      (void)xml_count_attribute(tag, "NumberOfTuples", tuples);
+      // The value type's width: Int8 … Float64 name their bits; 8 bytes when it cannot be told.
+      long double width = 8;
+      if (const std::size_t type = tag.find("type="); type != std::string::npos) {
+        const std::size_t digit = tag.find_first_of("0123456789", type);
+        unsigned bits = 0;
+        if (digit != std::string::npos && digit < tag.find_first_of(" \t\r\n", type) &&
+            std::from_chars(tag.data() + digit, tag.data() + tag.size(), bits).ec == std::errc() && bits >= 8 && bits <= 64)
+          width = bits / 8.0L;
+      }
+      blocks.check_array(tag, end + 1, piece);
+      const unsigned long long count = std::max({tuples, piece_points, piece_cells});
+      declared += static_cast<long double>(components) * static_cast<long double>(count) * std::max(width, 1.0L);
+      if (declared > limit) {
+        refuse("a DataArray of piece " + std::to_string(piece) + " declares " + std::to_string(components) +
+               " components of " + std::to_string(count) + " tuples");
+      }
+    }
+  }
+  if (appended_data != std::string::npos) blocks.check_appended(appended_data);
+}
+
 /// VTK allocates what a header declares before it reads the data: a corrupt count would claim
-/// gigabytes. The counts are checked against the file size first: legacy files store at least
-/// 6 bytes (ASCII "0 0 0 ") or 12 bytes (binary floats) per point; VTK XML files may compress,
-/// but not a triangle mesh by more than 1000:1.
-void check_declared_sizes(const std::string& path, SurfaceFormat format, std::uintmax_t size) {
+/// gigabytes. The counts of a legacy file are checked against its size first: it stores at least
+/// 6 bytes (ASCII "0 0 0 ") or 12 bytes (binary floats) per point.
+void check_legacy_declared_sizes(const std::string& path, std::uintmax_t size) {
   std::ifstream in(path, std::ios::binary);
   std::string head(4096, '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<std::size_t>(in.gcount()));
-  const auto number_after = [&](const std::string& key, std::size_t from, unsigned long long& value) {
-    const std::size_t at = head.find(key, from);
-    if (at == std::string::npos) return std::string::npos;
-    const char* begin = head.data() + at + key.size();
-    const auto [stop, error] = std::from_chars(begin, head.data() + head.size(), value);
-    return error == std::errc() ? static_cast<std::size_t>(stop - head.data()) : std::string::npos;
+  // The version chooses how VTK reads the cells; a mangled one makes it read version 5 cell
+  // arrays as the older format, out of bounds.
+  const std::string signature = "# vtk DataFile Version ";
+  std::size_t end = head.find('\n');
+  if (end != std::string::npos && end > 0 && head[end - 1] == '\r') --end;
+  const std::string version = head.rfind(signature, 0) == 0 && end != std::string::npos
+                                  ? head.substr(signature.size(), end - signature.size())
+                                  : std::string();
+  const std::size_t dot = version.find('.');
+  const auto digits = [](const std::string& text) {
+    return !text.empty() && std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
   };
-  unsigned long long points = 0;
-  double bytes_per_point = 0;
-  if (format == SurfaceFormat::vtk) {
-    // The version chooses how VTK reads the cells; a mangled one makes it read version 5 cell
-    // arrays as the older format, out of bounds.
-    const std::string signature = "# vtk DataFile Version ";
-    std::size_t end = head.find('\n');
-    if (end != std::string::npos && end > 0 && head[end - 1] == '\r') --end;
-    const std::string version = head.rfind(signature, 0) == 0 && end != std::string::npos
-                                    ? head.substr(signature.size(), end - signature.size())
-                                    : std::string();
-    const std::size_t dot = version.find('.');
-    const auto digits = [](const std::string& text) {
-      return !text.empty() && std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
-    };
-    if (dot == std::string::npos || !digits(version.substr(0, dot)) || !digits(version.substr(dot + 1))) {
-      fail(path, "not a legacy VTK file: the first line must be '# vtk DataFile Version <major>.<minor>'");
-    }
-    // The file type is the third line: "BINARY" anywhere else (a second header pasted into the
-    // file) must not switch how the lists are read.
-    std::size_t third = head.find('\n');
-    third = third == std::string::npos ? third : head.find('\n', third + 1);
-    const bool binary = third != std::string::npos && head.compare(third + 1, 6, "BINARY") == 0;
-    LegacyCellLists(path, binary).check();
-    if (number_after("\nPOINTS ", 0, points) == std::string::npos) return;  // VTK will say what is wrong
-    bytes_per_point = binary ? 12 : 6;
-  } else {
-    // Every piece's NumberOfPoints="N".
-    for (std::size_t at = 0;;) {
-      unsigned long long piece = 0;
-      at = number_after("NumberOfPoints=\"", at, piece);
-      if (at == std::string::npos) break;
-      points += piece;
-    }
-    bytes_per_point = 24.0 / 1000;
+  if (dot == std::string::npos || !digits(version.substr(0, dot)) || !digits(version.substr(dot + 1))) {
+    fail(path, "not a legacy VTK file: the first line must be '# vtk DataFile Version <major>.<minor>'");
   }
-  if (static_cast<double>(points) * bytes_per_point > static_cast<double>(size)) {
+  // The file type is the third line: "BINARY" anywhere else (a second header pasted into the
+  // file) must not switch how the lists are read.
+  std::size_t third = head.find('\n');
+  third = third == std::string::npos ? third : head.find('\n', third + 1);
+  const bool binary = third != std::string::npos && head.compare(third + 1, 6, "BINARY") == 0;
+  LegacyCellLists(path, binary).check();
+  const std::size_t key = head.find("\nPOINTS ");
+  if (key == std::string::npos) return;  // VTK will say what is wrong
+  unsigned long long points = 0;
+  const char* begin = head.data() + key + 8;
+  if (std::from_chars(begin, head.data() + head.size(), points).ec != std::errc()) return;
+  if (static_cast<double>(points) * (binary ? 12 : 6) > static_cast<double>(size)) {
     fail(path, "corrupt or truncated file: it declares " + std::to_string(points) + " points, more than " +
                    std::to_string(size) + " bytes can hold");
   }
@@ -651,7 +815,7 @@ void label_vtk(vtkPolyData* data, const std::string& path, SurfaceMesh& mesh) {
 }
 
 void read_vtk(const std::string& path, SurfaceMesh& mesh) {
-  check_declared_sizes(path, SurfaceFormat::vtk, require_file(path));
+  check_legacy_declared_sizes(path, require_file(path));
   vtkNew<VtkMessages> messages;
   vtkNew<vtkPolyDataReader> reader;
   messages->watch(reader);
@@ -670,14 +834,57 @@ void read_vtk(const std::string& path, SurfaceMesh& mesh) {
   label_vtk(data, path, mesh);
 }
 
+/// VTK's XML reader sizes a cell kind's connectivity by the last value of its offsets array
+/// before it reads a connectivity entry, so one corrupt offset claims gigabytes. This reader
+/// checks that value against what the file can hold as soon as the offsets are read (VTK has
+/// decoded them, whatever their encoding or compression), and stops the read if it cannot be.
+class BoundedXmlPolyDataReader : public vtkXMLPolyDataReader {
+ public:
+  static BoundedXmlPolyDataReader* New();
+  vtkTypeMacro(BoundedXmlPolyDataReader, vtkXMLPolyDataReader);
+
+  double max_connectivity_entries = 0;
+  std::string refusal;  // why the read was stopped; empty if it was not
+
+ protected:
+  int ReadArrayValues(vtkXMLDataElement* element, vtkIdType array_index, vtkAbstractArray* array,
+                      vtkIdType start_index, vtkIdType value_count, FieldType type) override {
+    const int read = vtkXMLPolyDataReader::ReadArrayValues(element, array_index, array, start_index, value_count, type);
+    const char* name = element->GetAttribute("Name");
+    auto* values = vtkDataArray::SafeDownCast(array);
+    if (read == 0 || name == nullptr || std::strcmp(name, "offsets") != 0 || values == nullptr ||
+        values->GetNumberOfTuples() == 0 || values->GetNumberOfComponents() != 1) {
+      return read;
+    }
+    const double last = values->GetComponent(values->GetNumberOfTuples() - 1, 0);
+    if (last > max_connectivity_entries) {
+      std::ostringstream why;
+      why << "corrupt file: an offsets array of piece " << this->Piece + 1 << " ends at " << std::fixed << std::setprecision(0) << last
+          << ", more connectivity entries than the file's bytes can hold";
+      refusal = why.str();
+      return 0;
+    }
+    return read;
+  }
+};
+vtkStandardNewMacro(BoundedXmlPolyDataReader);
+
 void read_vtp(const std::string& path, SurfaceMesh& mesh) {
-  check_declared_sizes(path, SurfaceFormat::vtp, require_file(path));
+  const std::uintmax_t size = require_file(path);
+  check_xml_declared_sizes(path, size);
   vtkNew<VtkMessages> messages;
-  vtkNew<vtkXMLPolyDataReader> reader;
+  vtkNew<BoundedXmlPolyDataReader> reader;
+  reader->max_connectivity_entries = kMaxXmlBytesPerFileByte * static_cast<double>(size) / 8;
   messages->watch(reader);
   reader->SetReaderErrorObserver(messages);
   reader->SetParserErrorObserver(messages);
-  vtkSmartPointer<vtkPolyData> data = run_reader(reader.Get(), messages, path, "VTK XML PolyData");
+  vtkSmartPointer<vtkPolyData> data;
+  try {
+    data = run_reader(reader.Get(), messages, path, "VTK XML PolyData");
+  } catch (const std::invalid_argument&) {
+    if (!reader->refusal.empty()) fail(path, reader->refusal);  // VTK's own message is vaguer
+    throw;
+  }
   label_vtk(data, path, mesh);
 }
 

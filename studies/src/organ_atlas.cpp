@@ -401,6 +401,20 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
   return study;
 }
 
+std::string describe_attachment(const meshes::OrganAttachment& attachment) {
+  if (attachment.rule_count() == 0) return "not held";
+  if (attachment.has_plane()) {
+    const Eigen::Vector3d normal = to_eigen(attachment.plane_normal).normalized();
+    const auto triple = [](const Eigen::Vector3d& v) {
+      return "(" + format_number(v[0]) + ", " + format_number(v[1]) + ", " + format_number(v[2]) + ")";
+    };
+    return "below the plane through " + triple(to_eigen(attachment.plane_point_m)) + " m with unit normal " +
+           triple(normal);
+  }
+  if (!attachment.msh_group.empty()) return "on the physical group '" + attachment.msh_group + "'";
+  return "on the triangles listed in a file of sha256 " + sha256_hex(read_file(attachment.triangles_path)).substr(0, 16);
+}
+
 realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, const AtlasRunOptions& options) {
   given.validate();
   OrganAtlasStudy study = given;
@@ -443,13 +457,12 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
 
   realtime::mfs::OrganAtlas atlas;
   if (on_organ) {
-    const meshes::OrganAttachment& held = study.geometry.organ.attachment;
+    atlas.surface_sha256 = sha256_hex(read_file(study.geometry.organ.surface_path));
+    atlas.attachment = describe_attachment(study.geometry.organ.attachment);
     atlas.organ = "organ surface '" + fs::path(study.geometry.organ.surface_path).filename().string() + "' (sha256 " +
-                  sha256_hex(read_file(study.geometry.organ.surface_path)).substr(0, 16) + "…), " +
-                  (held.rule_count() == 0 ? std::string("no attachment (the exterior body is held by the cut)")
-                   : held.has_plane()     ? "held below a plane"
-                   : !held.msh_group.empty() ? "held on the group '" + held.msh_group + "'"
-                                             : "held on the listed triangles");
+                  atlas.surface_sha256.substr(0, 16) + "…), " +
+                  (study.geometry.organ.attachment.rule_count() == 0 ? "not held (the exterior body is held by the cut)"
+                                                                     : "held " + atlas.attachment);
     atlas.axisymmetric_about_z = false;
   } else {
     atlas.organ = study.geometry.benchmark == meshes::Benchmark::B1

@@ -12,8 +12,10 @@
 #include <vtkDataArray.h>
 #include <vtkPointData.h>
 #include <vtkXMLPolyDataReader.h>
+#include <vtkXMLPolyDataWriter.h>
 
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -463,6 +465,33 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
   xml.replace(xml.find("NumberOfPoints=\"162\""), 20, "NumberOfPoints=\"999999999162\"");
   const std::string count = directory.file("count.vtp", xml);
   expect_invalid_argument([&] { read_surface_mesh(count); }, {count, "declares 999999999162 points"});
+  // The XML reader allocates an offset per declared cell and NumberOfComponents values per point
+  // before reading them (fuzzing found both, 8.6 GB and 2.4 GB from a 1.5 kB file).
+  const std::size_t polys = xml.find("NumberOfPolys=\"");
+  const std::string polys_value = xml.substr(polys, xml.find('"', polys + 15) + 1 - polys);
+  std::string many_cells = read_file(directory.path("header.vtp"));
+  many_cells.replace(many_cells.find(polys_value), polys_value.size(), "NumberOfPolys=\"1073741847\"");
+  const std::string cells = directory.file("cells.vtp", many_cells);
+  expect_invalid_argument([&] { read_surface_mesh(cells); }, {cells, "piece 1 declares 162 points and 1073741847 cells"});
+  std::string many_components = read_file(directory.path("header.vtp"));
+  many_components.replace(many_components.find("NumberOfComponents=\"3\""), 22, "NumberOfComponents='300000000'");
+  const std::string components = directory.file("components.vtp", many_components);
+  expect_invalid_argument([&] { read_surface_mesh(components); },
+                          {components, "a DataArray of piece 1 declares 300000000 components of 320 tuples"});
+  // VTK sizes the connectivity by the last offset before reading it.
+  const std::string ascii_offsets = directory.file(
+      "offsets.vtp",
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
+      "<PolyData><Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\"><Points>\n"
+      "<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0</DataArray>\n"
+      "</Points><Polys>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2</DataArray>\n"
+      "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">402653184</DataArray>\n"
+      "</Polys></Piece></PolyData></VTKFile>\n");
+  expect_invalid_argument([&] { read_surface_mesh(ascii_offsets); },
+                          {ascii_offsets, "an offsets array of piece 1 ends at 402653184"});
+  std::string good_offsets = read_file(ascii_offsets);
+  good_offsets.replace(good_offsets.find("402653184"), 9, "3");
+  EXPECT_EQ(read_surface_mesh(directory.file("offsets_ok.vtp", good_offsets)).triangles.size(), 1U);
 
   // A legacy file of another dataset type.
   const std::string grid = directory.file("grid.vtk",
@@ -592,6 +621,63 @@ TEST(SurfaceMeshIo, BinaryStlCountIsCheckedBeforeVtkAllocates) {
   };
   EXPECT_EXIT(read_with_2_gb(), ::testing::ExitedWithCode(0), "text_with_nul.stl");
 #endif
+}
+
+// Compressed VTK XML files (zlib, as ParaView writes them) inline, appended raw and appended
+// base64 read like uncompressed ones; a corrupt block count in any of them is refused before VTK
+// allocates a size per claimed block (2^31 blocks: 8.6 GB, found by fuzzing).
+TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const TriangleMeshData mesh = sphere();
+  write_surface_mesh(directory.path("plain.vtp"), mesh.vertices, mesh.triangles);
+  vtkNew<vtkXMLPolyDataReader> plain;
+  plain->SetFileName(directory.path("plain.vtp").c_str());
+  plain->Update();
+  struct Layout {
+    const char* name;
+    int mode;
+    bool base64;
+    bool header64;  // UInt64 header words, else UInt32 (VTK's default)
+  };
+  for (const Layout layout : {Layout{"inline.vtp", vtkXMLWriter::Binary, true, true},
+                              Layout{"inline32.vtp", vtkXMLWriter::Binary, true, false},
+                              Layout{"appended_raw.vtp", vtkXMLWriter::Appended, false, true},
+                              Layout{"appended_base64.vtp", vtkXMLWriter::Appended, true, false}}) {
+    SCOPED_TRACE(layout.name);
+    const std::string path = directory.path(layout.name);
+    vtkNew<vtkXMLPolyDataWriter> writer;
+    writer->SetInputData(plain->GetOutput());
+    writer->SetFileName(path.c_str());
+    writer->SetCompressorTypeToZLib();
+    writer->SetDataMode(layout.mode);
+    writer->SetEncodeAppendedData(layout.base64);
+    if (layout.header64) writer->SetHeaderTypeToUInt64();
+    ASSERT_EQ(writer->Write(), 1);
+    std::string bytes = read_file(path);
+    ASSERT_NE(bytes.find("compressor=\"vtkZLibDataCompressor\""), std::string::npos);
+    const SurfaceMesh read = read_surface_mesh(path);
+    EXPECT_EQ(read.vertices, mesh.vertices);
+    EXPECT_EQ(read.triangles, mesh.triangles);
+
+    // The first array's block count: one header word, as base64 (12 characters hold a UInt64
+    // and one more byte, 8 characters a UInt32 and two more) or as raw bytes.
+    const std::size_t appended = bytes.find("<AppendedData");
+    std::size_t first = appended == std::string::npos ? bytes.find('>', bytes.find("format=\"binary\"")) + 1
+                                                      : bytes.find('_', appended) + 1;
+    while (layout.base64 && std::isspace(static_cast<unsigned char>(bytes[first]))) ++first;
+    ASSERT_NE(bytes.find(layout.header64 ? "header_type=\"UInt64\"" : "header_type=\"UInt32\""), std::string::npos);
+    if (layout.base64) {
+      // 2^31 - 1 blocks; the bytes after the word are zero.
+      if (layout.header64) bytes.replace(first, 12, "////fwAAAAAA");
+      else bytes.replace(first, 8, "////fwAA");
+    } else {
+      const unsigned char count[8] = {0xff, 0xff, 0xff, 0x7f, 0, 0, 0, 0};
+      bytes.replace(first, 8, reinterpret_cast<const char*>(count), 8);
+    }
+    const std::string corrupt = directory.file(std::string("corrupt_") + layout.name, bytes);
+    expect_invalid_argument([&] { read_surface_mesh(corrupt); },
+                            {corrupt, "compressed DataArray of piece 1 declares 2147483647 compressed blocks"});
+  }
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {

@@ -154,6 +154,9 @@ class AtlasReader {
       fail("version", "= " + text_of(version) + ", this reader knows version " + std::to_string(format_version));
     OrganAtlas atlas;
     atlas.organ = string(document, "", "organ");
+    // Optional: atlases written before they recorded these lack them.
+    for (auto [key, field] : {std::pair{"surface_sha256", &atlas.surface_sha256}, std::pair{"attachment", &atlas.attachment}})
+      if (document.contains(key)) *field = string(document, "", key);
     atlas.axisymmetric_about_z = boolean(document, "", "axisymmetric_about_z");
     const std::string modes = string(document, "", "modes");
     if (modes != "normal" && modes != "all") fail("modes", "is '" + modes + "', expected 'normal' or 'all'");
@@ -235,12 +238,14 @@ void write_organ_atlas(const OrganAtlas& atlas, const std::string& path) {
                        {"dofs", s.dofs},
                        {"seconds", s.seconds}});
   }
-  const json document{{"format", format_name},
+  json document{{"format", format_name},
                       {"version", format_version},
                       {"organ", atlas.organ},
                       {"axisymmetric_about_z", atlas.axisymmetric_about_z},
                       {"modes", atlas.mode_count == 1 ? "normal" : "all"},
                       {"samples", samples}};
+  if (!atlas.surface_sha256.empty()) document["surface_sha256"] = atlas.surface_sha256;
+  if (!atlas.attachment.empty()) document["attachment"] = atlas.attachment;
   std::ofstream out(path, std::ios::out | std::ios::trunc);
   out << document.dump(2) << "\n";
   if (!out.flush()) throw std::runtime_error(path + ": cannot write the organ atlas");

@@ -9,6 +9,7 @@
 #include "touchstone/realtime/runtime/contact_model.hpp"
 #include "touchstone/realtime/runtime/surface_deformation.hpp"
 #include "touchstone/studies/fem_reference/reference_study.hpp"
+#include "touchstone/studies/organ_atlas.hpp"
 #include "touchstone/studies/output_files.hpp"
 #include "touchstone/studies/provenance.hpp"
 #include "touchstone/studies/sim_scene.hpp"
@@ -326,7 +327,28 @@ double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
+
 }  // namespace
+
+json replay_atlas_agreement(const PalpationReplayStudy& study, const SimScene& scene) {
+  const std::string held = describe_attachment(study.attachment);
+  const auto& atlas = scene.settings.organ_atlas;
+  if (!atlas)
+    return {{"atlas", nullptr}, {"attachment", held}, {"attachment_checked", false},
+            {"note", "the scene has no organ atlas: the real-time model uses the half-space exterior"}};
+  json agreement{{"atlas", scene.atlas_path}, {"attachment", held}, {"attachment_checked", !atlas->attachment.empty()}};
+  if (atlas->attachment.empty()) {
+    agreement["note"] = "the organ atlas '" + scene.atlas_path +
+                        "' does not record where its organ was held (written before atlases recorded it): "
+                        "the replay's attachment is not checked against it";
+  } else if (atlas->attachment != held) {
+    throw std::invalid_argument(study.config_path + ": [organ] holds the organ " + held + ", but the scene's organ atlas '" +
+                                scene.atlas_path + "' was made holding it " + atlas->attachment +
+                                "; the real-time model's exterior knows only the atlas's attachment, so the reference "
+                                "must hold the organ the same way (set the [organ] attachment rule to the atlas's)");
+  }
+  return agreement;
+}
 
 json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOptions& options) {
   study.validate();
@@ -350,6 +372,10 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
                                   format_number(g.tool_radius_m) + " m): " + e.what());
     }
   }
+
+  const json atlas_agreement = replay_atlas_agreement(study, scene);
+  if (rank0 && !options.quiet && atlas_agreement.contains("note"))
+    std::printf("%s: note: %s\n", study.name.c_str(), atlas_agreement.at("note").get<std::string>().c_str());
 
   // 1. The real-time run (rank 0), and the contacts every rank needs.
   std::vector<Frame> frames;
@@ -639,6 +665,7 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
       {"scene", scene.name},
       {"organ_file", organ_file},
       {"organ_atlas", scene.atlas_path},
+      {"atlas_agreement", atlas_agreement},
       {"contact_condition", geometry::to_string(scene.settings.tool.condition)},
       {"realtime",
        {{"summary", "realtime/summary.json"},

@@ -115,6 +115,36 @@ TEST(OrganAtlasFile, NormalOnlyAtlasHoldsOneByOneMatrices) {
   EXPECT_EQ(back.samples[0].stiffness_N_per_m(1, 1), 0.0);
 }
 
+// Where the organ was held and which surface file it came from are recorded for a user's organ
+// (a reference must hold it the same way) and optional, so that older atlases still read.
+TEST(OrganAtlasFile, AttachmentAndSurfaceAreKeptAndOptional) {
+  OrganAtlas atlas = hemisphere_atlas();
+  atlas.attachment = "below the plane through (0, 0, 0) m with unit normal (0, 0, 1)";
+  atlas.surface_sha256 = std::string(64, 'a');
+  const std::string path = scratch("held.json");
+  write_organ_atlas(atlas, path);
+  const OrganAtlas back = read_organ_atlas(path);
+  EXPECT_EQ(back.attachment, atlas.attachment);
+  EXPECT_EQ(back.surface_sha256, atlas.surface_sha256);
+
+  const std::string bare = scratch("not_held.json");
+  write_organ_atlas(hemisphere_atlas(), bare);
+  const nlohmann::json document = nlohmann::json::parse(std::ifstream(bare));
+  EXPECT_FALSE(document.contains("attachment"));
+  EXPECT_FALSE(document.contains("surface_sha256"));
+  EXPECT_TRUE(read_organ_atlas(bare).attachment.empty());
+
+  nlohmann::json mistyped = document;
+  mistyped["attachment"] = 3;
+  std::ofstream(scratch("mistyped_attachment.json")) << mistyped.dump(1);
+  try {
+    read_organ_atlas(scratch("mistyped_attachment.json"));
+    ADD_FAILURE() << "a number accepted as the attachment";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("mistyped_attachment.json: attachment"), std::string::npos) << error.what();
+  }
+}
+
 /// Writes the round-trip atlas with one edit and returns the reader's message.
 std::string read_error(const std::string& name, const std::function<void(nlohmann::json&)>& edit) {
   const std::string path = scratch(name + ".json");

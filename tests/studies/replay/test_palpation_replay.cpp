@@ -6,7 +6,9 @@
 #include "touchstone/studies/palpation_replay.hpp"
 
 #include "support/temporary_directory.hpp"
+#include "touchstone/studies/organ_atlas.hpp"
 #include "touchstone/studies/output_files.hpp"
+#include "touchstone/studies/sim_scene.hpp"
 
 #include <gtest/gtest.h>
 
@@ -111,6 +113,97 @@ attachment_plane_normal = [0, 0, 1]
                                      directory.path("held"));
   EXPECT_NE(held.find("attachment"), std::string::npos) << held;
   EXPECT_NE(held.find("model1"), std::string::npos) << "the error names the contact: " << held;
+}
+
+TEST(PalpationReplayAtlas, AttachmentsAreDescribedCanonically) {
+  touchstone::testing::TemporaryDirectory directory("replay_attachment");
+  meshes::OrganAttachment held;
+  EXPECT_EQ(describe_attachment(held), "not held");
+  held.plane_point_m = {0.001, 0, -0.5};
+  held.plane_normal = {0, 0, 2};  // the words carry the unit normal: any length holds alike
+  EXPECT_EQ(describe_attachment(held), "below the plane through (0.001, 0, -0.5) m with unit normal (0, 0, 1)");
+  held = {};
+  held.msh_group = "base";
+  EXPECT_EQ(describe_attachment(held), "on the physical group 'base'");
+  // A list of triangles is named by its content: a copy elsewhere matches, an edit does not.
+  held = {};
+  held.triangles_path = directory.file("held.txt", "0 1 2\n");
+  const std::string listed = describe_attachment(held);
+  held.triangles_path = directory.file("copy.txt", "0 1 2\n");
+  EXPECT_EQ(describe_attachment(held), listed);
+  held.triangles_path = directory.file("edited.txt", "0 1 3\n");
+  EXPECT_NE(describe_attachment(held), listed);
+}
+
+/// An atlas of one sample at the tiny scene's pole, recording `attachment`.
+void write_pole_atlas(const std::string& path, const std::string& attachment) {
+  realtime::mfs::OrganAtlas atlas;
+  atlas.organ = "the tiny scene's hemisphere";
+  atlas.attachment = attachment;
+  realtime::mfs::OrganAtlasSample sample;
+  sample.label = "pole";
+  sample.contact_point_m = {0, 0, 0.05};
+  sample.direction = {0, 0, -1};
+  sample.frame = realtime::mfs::PunchFrame::along({0, 0, 0.05}, {0, 0, -1});
+  sample.tool_radius_m = 0.0025;
+  sample.local_radius_m = 0.0125;
+  sample.youngs_modulus_Pa = 1e4;
+  sample.poisson_ratio = 0.45;
+  sample.stiffness_N_per_m = Eigen::Vector3d(15, 8, 8).asDiagonal();
+  sample.half_space_stiffness_N_per_m = Eigen::Vector3d(14.49, 7.33, 7.33).asDiagonal();
+  sample.relative_error = 1e-3;
+  sample.dofs = 1000;
+  sample.seconds = 1;
+  atlas.samples.push_back(sample);
+  realtime::mfs::write_organ_atlas(atlas, path);
+}
+
+// The real-time model's exterior knows only the attachment its atlas was made with: a replay that
+// holds the organ otherwise is refused before it runs, a matching one is recorded as checked, and
+// an atlas that does not record its attachment is noted.
+TEST(PalpationReplayAtlas, AReferenceHeldOtherwiseThanItsAtlasIsRefused) {
+  touchstone::testing::TemporaryDirectory directory("replay_atlas");
+  PalpationReplayStudy study = read_text(study_text(""));
+  study.config_path = "replay.toml";
+  const std::string held = describe_attachment(study.attachment);
+  ASSERT_EQ(held, "below the plane through (0, 0, 0) m with unit normal (0, 0, 1)");
+  std::string scene_text = read_file(replay_folder + "/tiny_scene.toml");
+  const std::string atlas_path = directory.path("atlas.json");
+  scene_text.replace(scene_text.find("[organ]\n"), 8, "[organ]\natlas = \"" + atlas_path + "\"\n");
+  const std::string scene_path = directory.file("scene.toml", scene_text);
+  const auto scene_with_atlas = [&](const std::string& attachment) {
+    write_pole_atlas(atlas_path, attachment);
+    return read_sim_scene(scene_path);
+  };
+
+  const nlohmann::json same = replay_atlas_agreement(study, scene_with_atlas(held));
+  EXPECT_EQ(same.at("attachment_checked"), true) << same.dump();
+  EXPECT_EQ(same.at("atlas"), atlas_path);
+  EXPECT_FALSE(same.contains("note")) << same.dump();
+
+  const std::string other = "below the plane through (0, 0, 0.01) m with unit normal (0, 0, 1)";
+  try {
+    replay_atlas_agreement(study, scene_with_atlas(other));
+    ADD_FAILURE() << "an atlas held at z = 0.01 m accepted for a reference held at z = 0";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    for (const std::string& fragment : {std::string("replay.toml: [organ]"), held, other, atlas_path})
+      EXPECT_NE(what.find(fragment), std::string::npos) << fragment << " missing from: " << what;
+  }
+  // The run refuses it too, before the real-time run.
+  std::string refused_study = study_text("");
+  refused_study.replace(refused_study.find(replay_folder + "/tiny_scene.toml"), replay_folder.size() + 16, scene_path);
+  const std::string refused = run_error(refused_study, directory.path("refused"));
+  EXPECT_NE(refused.find("was made holding it " + other), std::string::npos) << refused;
+  EXPECT_FALSE(std::filesystem::exists(directory.path("refused") + "/realtime/summary.json"));
+
+  const nlohmann::json unrecorded = replay_atlas_agreement(study, scene_with_atlas(""));
+  EXPECT_EQ(unrecorded.at("attachment_checked"), false);
+  EXPECT_NE(unrecorded.at("note").get<std::string>().find("does not record where its organ was held"), std::string::npos);
+
+  const nlohmann::json none = replay_atlas_agreement(study, read_sim_scene(replay_folder + "/tiny_scene.toml"));
+  EXPECT_EQ(none.at("attachment_checked"), false);
+  EXPECT_TRUE(none.at("atlas").is_null());
 }
 
 TEST(PalpationReplayRun, EveryTickComparesWithItsContactsStiffness) {

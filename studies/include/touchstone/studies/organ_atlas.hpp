@@ -78,6 +78,11 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config);
 /// organ study whose surface is resolved (geometry.organ.surface_path set). Reads the surface.
 std::vector<std::array<double, 3>> organ_atlas_sites(const OrganAtlasStudy& study);
 
+/// Where an organ is held, in canonical words that an atlas records and a reference compares
+/// with its own: "below the plane through (0, 0, 0) m with unit normal (0, 0, 1)", "on the
+/// physical group 'base'", "on the triangles listed in a file of sha256 <first 16 hex digits>"
+/// (the file's content, so a copy elsewhere matches), or "not held". Reads a triangles file.
+std::string describe_attachment(const meshes::OrganAttachment& attachment);
 /// The punch frame of a sample: origin at the centre of the rim circle (c − (R − √(R² − a²)) n on
 /// a sphere of radius R, c itself on a flat face; on an organ surface the rim circle found on the
 /// surface, meshes::organ_rim_centre), e₃ = −n, the inward normal.

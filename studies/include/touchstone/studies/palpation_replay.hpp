@@ -81,6 +81,15 @@ nlohmann::json palpation_replay_params(const PalpationReplayStudy& study);
 /// True when a config file is a palpation replay (it has a [replay] table), for `touchstone study`.
 bool is_palpation_replay_config(const std::string& path);
 
+struct SimScene;
+
+/// How the replay's reference agrees with the scene's organ atlas, as results.json records it
+/// under "atlas_agreement": {atlas, attachment (the replay's, in describe_attachment's words),
+/// attachment_checked, note}. The real-time model's body-aware exterior knows only the
+/// attachment the atlas was made with, so a different one throws std::invalid_argument naming
+/// both, before anything runs. An atlas that does not record its attachment is noted.
+nlohmann::json replay_atlas_agreement(const PalpationReplayStudy& study, const SimScene& scene);
+
 struct ReplayRunOptions {
   std::string output_directory = "output/palpation_replay";
   std::string cache_directory = ".cache/touchstone";  ///< empty: no cache

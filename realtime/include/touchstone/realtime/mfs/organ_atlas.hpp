@@ -20,6 +20,7 @@
 /// File format (JSON, SI units; unknown keys are ignored, every listed key is required):
 ///   { "format": "touchstone.organ_atlas", "version": 1,
 ///     "organ": text, "axisymmetric_about_z": bool, "modes": "normal" | "all",
+///     optional "surface_sha256": hex text, "attachment": text,
 ///     "samples": [ { "label": text,
 ///                    "contact_point_m": [x, y, z], "direction": [dx, dy, dz],
 ///                    "frame": { "origin_m": [3], "e1": [3], "e2": [3], "e3": [3] },
@@ -60,6 +61,12 @@ struct OrganAtlasSample {
 
 struct OrganAtlas {
   std::string organ;                  ///< what body it was made for, in words
+  /// For a user's organ: the sha256 of its surface file, and where it was held, in the canonical
+  /// words of meshes::describe_attachment. A reference that verifies the real-time model must hold
+  /// the organ the same way, since the exterior stiffness knows only this attachment. Empty when
+  /// not recorded (a benchmark body, or an atlas written before these were recorded).
+  std::string surface_sha256;
+  std::string attachment;
   bool axisymmetric_about_z = false;  ///< the organ (and its attachment) is symmetric about the z axis
   int mode_count = 3;                 ///< 1: normal mode only; 3: all three
   std::vector<OrganAtlasSample> samples;
