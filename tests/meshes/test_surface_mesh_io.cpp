@@ -466,7 +466,7 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
   const std::string count = directory.file("count.vtp", xml);
   expect_invalid_argument([&] { read_surface_mesh(count); }, {count, "declares 999999999162 points"});
   // The XML reader allocates an offset per declared cell and NumberOfComponents values per point
-  // before reading them (fuzzing found both, 8.6 GB and 2.4 GB from a 1.5 kB file).
+  // before reading them, so a corrupt count in a small file must be refused first.
   const std::size_t polys = xml.find("NumberOfPolys=\"");
   const std::string polys_value = xml.substr(polys, xml.find('"', polys + 15) + 1 - polys);
   std::string many_cells = read_file(directory.path("header.vtp"));
@@ -625,7 +625,7 @@ TEST(SurfaceMeshIo, BinaryStlCountIsCheckedBeforeVtkAllocates) {
 
 // Compressed VTK XML files (zlib, as ParaView writes them) inline, appended raw and appended
 // base64 read like uncompressed ones; a corrupt block count in any of them is refused before VTK
-// allocates a size per claimed block (2^31 blocks: 8.6 GB, found by fuzzing).
+// allocates a size per claimed block.
 TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
   const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = sphere();
