@@ -42,7 +42,7 @@ struct BoundaryCondition {
 enum class LinearSolver {
   cg_amg_trilinos,  ///< CG + Trilinos ML, translation near-null space (default)
   cg_gamg_petsc,    ///< CG + PETSc GAMG, rigid-body near-null space
-  direct_mumps,     ///< PETSc + MUMPS sparse LU (small cases)
+  direct_mumps,     ///< PETSc + MUMPS sparse LDLᵀ (symmetric mode; small cases)
 };
 
 /// How the volumetric (pressure) part of the elastic energy is discretised (near-incompressibility).
