@@ -1,9 +1,10 @@
 // The bounding-volume hierarchy against brute force over every triangle (independent
 // Möller–Trumbore, projection and winding-number implementations), against Embree, after a
-// refit, on degenerate input, and its counters.
+// refit, on degenerate input, and its counters. One file for the build and the query sources:
+// every case builds trees to query them, against the same brute force and test surfaces.
 #include "support/embree_scene.hpp"
+#include "support/test_surfaces.hpp"
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
-#include "touchstone/realtime/collision/oriented_box.hpp"
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 
@@ -25,6 +26,7 @@ namespace touchstone::realtime::collision {
 namespace {
 
 using touchstone::testing::EmbreeScene;
+using touchstone::testing::torus;
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
@@ -40,27 +42,6 @@ using Mesh = TriangleMeshData;
 
 // ---------------------------------------------------------------------------------------------
 // Surfaces.
-
-/// Torus around z: tube radius `minor` at distance `major` from the axis (non-convex, genus 1).
-Mesh torus(int around, int tube, double major, double minor) {
-  Mesh mesh;
-  for (int i = 0; i < around; ++i) {
-    for (int j = 0; j < tube; ++j) {
-      const double u = 2 * pi * i / around;
-      const double v = 2 * pi * j / tube;
-      mesh.vertices.push_back({(major + minor * std::cos(v)) * std::cos(u),
-                               (major + minor * std::cos(v)) * std::sin(u), minor * std::sin(v)});
-    }
-  }
-  const auto index = [&](int i, int j) { return (i % around) * tube + (j % tube); };
-  for (int i = 0; i < around; ++i) {
-    for (int j = 0; j < tube; ++j) {
-      mesh.triangles.push_back({index(i, j), index(i + 1, j), index(i + 1, j + 1)});
-      mesh.triangles.push_back({index(i, j), index(i + 1, j + 1), index(i, j + 1)});
-    }
-  }
-  return mesh;
-}
 
 /// An icosphere whose vertices are moved radially: r(d̂) = radius · f(d̂) (star-shaped, so
 /// still closed and embedded for f > 0).
@@ -856,79 +837,6 @@ TEST(BoundingVolumeHierarchy, ConcurrentReadersGetTheSerialAnswers) {
   }
   for (std::thread& thread : threads) thread.join();
   EXPECT_EQ(mismatches[0] + mismatches[1], 0);
-}
-
-// ---------------------------------------------------------------------------------------------
-// The oriented box on its own.
-
-TEST(OrientedBox, FitFindsTheAxesOfARotatedSlabAndEnclosesItsCorners) {
-  // A 40 × 10 × 2 mm box surface, rotated: the fit's first axis is the long side.
-  Mesh slab = cube(1.0);
-  const Matrix3d rotation = (Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()) *
-                             Eigen::AngleAxisd(-0.4, Vector3d::UnitZ())).toRotationMatrix();
-  for (Vector3d& v : slab.vertices) {
-    v = rotation * Vector3d(0.02 * v.x(), 0.005 * v.y(), 0.001 * v.z()) + Vector3d(0.1, -0.2, 0.3);
-  }
-  std::vector<Vector3d> corners;
-  for (const Vector3i& t : slab.triangles) {
-    for (int k = 0; k < 3; ++k) corners.push_back(slab.vertices[t[k]]);
-  }
-  const OrientedBox box = fit_oriented_box(corners);
-  EXPECT_NEAR(std::abs(box.axes.row(0).dot(rotation.col(0).transpose())), 1, 1e-12);
-  EXPECT_NEAR(std::abs(box.axes.row(1).dot(rotation.col(1).transpose())), 1, 1e-12);
-  EXPECT_NEAR((box.axes * box.axes.transpose() - Matrix3d::Identity()).norm(), 0, 1e-14);
-  EXPECT_NEAR(box.axes.determinant(), 1, 1e-14);
-  EXPECT_NEAR(box.half_extents.x(), 0.02, 1e-14);
-  EXPECT_NEAR(box.half_extents.y(), 0.005, 1e-14);
-  EXPECT_NEAR(box.half_extents.z(), 0.001, 1e-14);
-  EXPECT_LT((box.center - Vector3d(0.1, -0.2, 0.3)).norm(), 1e-14);
-  for (const Vector3d& c : corners) {
-    EXPECT_TRUE((box.to_local(c).cwiseAbs() - box.half_extents).maxCoeff() < 1e-15);
-  }
-  // One triangle: a flat box in its plane. Degenerate input still gives a finite box.
-  const OrientedBox flat = fit_oriented_box({Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0)});
-  EXPECT_NEAR(flat.half_extents.minCoeff(), 0, 1e-15);
-  const OrientedBox point = fit_oriented_box({Vector3d(1, 1, 1), Vector3d(1, 1, 1), Vector3d(1, 1, 1)});
-  EXPECT_TRUE(point.axes.allFinite());
-  EXPECT_EQ(point.half_extents, Vector3d::Zero());
-}
-
-TEST(OrientedBox, SegmentTestEqualsClippingAgainstTheSlabs) {
-  std::mt19937_64 random(3);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  const auto random_vector = [&] { return Vector3d(uniform(random), uniform(random), uniform(random)); };
-  int overlaps = 0;
-  for (int i = 0; i < 20000; ++i) {
-    OrientedBox box;
-    box.axes = Eigen::Quaterniond(Eigen::Vector4d(random_vector().homogeneous().normalized())).toRotationMatrix();
-    box.center = 0.3 * random_vector();
-    box.half_extents = 0.5 * random_vector().cwiseAbs();
-    const Vector3d a = random_vector();
-    const Vector3d b = i % 10 == 0 ? a : random_vector();
-    // Reference: clip the parameter interval [0, 1] against the three slabs in the box frame.
-    const Vector3d p = box.to_local(a);
-    const Vector3d d = box.to_local(b) - p;
-    double low = 0, high = 1;
-    for (int k = 0; k < 3; ++k) {
-      if (d[k] == 0) {
-        if (std::abs(p[k]) > box.half_extents[k]) high = -1;
-        continue;
-      }
-      double t0 = (-box.half_extents[k] - p[k]) / d[k];
-      double t1 = (box.half_extents[k] - p[k]) / d[k];
-      if (t0 > t1) std::swap(t0, t1);
-      low = std::max(low, t0);
-      high = std::min(high, t1);
-    }
-    const bool expected = low <= high;
-    // Skip near-touching cases where rounding may decide either way.
-    if (std::abs(high - low) < 1e-9) continue;
-    overlaps += expected;
-    ASSERT_EQ(segment_overlaps(box, 0.5 * (a + b), 0.5 * (b - a)), expected) << "case " << i;
-    // The distance to the box is zero exactly for points inside it.
-    EXPECT_EQ(squared_distance(box, a) == 0, (p.cwiseAbs() - box.half_extents).maxCoeff() <= 0);
-  }
-  EXPECT_GT(overlaps, 2000);
 }
 
 }  // namespace

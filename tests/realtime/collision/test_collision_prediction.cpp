@@ -3,7 +3,8 @@
 // contact is ever missed over thousands of randomized approaches with tremor, on a convex and a
 // non-convex surface, at the full and at reduced prediction rates; that a cycle after a
 // prediction costs one distance and one comparison and no surface query; and that misses are
-// counted when the certificate is wrong (a lying surface).
+// counted when the certificate is wrong (a lying surface). One file, as one source file makes
+// the prediction: the randomized approaches and their surfaces serve every case.
 //
 // Built twice: test_collision_prediction (label fast) and, with TOUCHSTONE_LARGE_TESTS,
 // test_collision_prediction_large (label large: five times the trajectories, finer meshes).

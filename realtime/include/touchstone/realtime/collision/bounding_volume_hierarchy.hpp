@@ -138,6 +138,7 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   /// lane centres order the children along a query direction.
   template <int W>
   struct alignas(64) ObbNode {
+    using Scalar = double;
     static constexpr int width = W;
     static constexpr bool oriented = true;
     alignas(16) double center[3][W];        ///< c [m]
@@ -147,12 +148,17 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
     std::int16_t count[W] = {};  ///< leaf child: its number of triangles; inner child: 0
     std::int32_t lanes = 0;      ///< bit k set: lane k holds a child
   };
+  /// An AABB node stores its boxes in float: half the memory a query streams through (128 bytes
+  /// for W = 4). Each stored box contains its double box (the half extent grows by the centre's
+  /// rounding and is rounded up), and the tests run in double on the stored values, so the
+  /// queries stay exact.
   template <int W>
   struct alignas(64) AabbNode {
+    using Scalar = float;
     static constexpr int width = W;
     static constexpr bool oriented = false;
-    alignas(16) double center[3][W];
-    alignas(16) double half_extents[3][W];
+    alignas(16) float center[3][W];        ///< c [m]
+    alignas(16) float half_extents[3][W];  ///< e [m]
     std::int32_t child[W] = {};
     std::int16_t count[W] = {};
     std::int32_t lanes = 0;

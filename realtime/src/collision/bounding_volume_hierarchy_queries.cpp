@@ -1,0 +1,626 @@
+// The bounding-volume hierarchy's queries: first hit of a segment or ray, closest point and
+// inside/outside, each a traversal of the nodes bounding_volume_hierarchy.cpp builds, counting
+// its box and triangle tests (the paper's Table 1).
+#include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
+
+#include "touchstone/geometry/closest_point_on_triangle.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+namespace touchstone::realtime::collision {
+
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double infinity = std::numeric_limits<double>::infinity();
+
+// Traversal stacks are fixed arrays: the build keeps every binary tree within 57 levels, and a
+// traversal stacks at most width − 1 children per level: 57 for a binary tree, 3 · 29 for a
+// 4-wide one.
+constexpr int max_stack = 96;
+// contains(): a crossing closer to the query point than this fraction of the diagonal is "on
+// the surface" for the parity test, which then defers to the pseudo-normal sign.
+constexpr double relative_surface_tolerance = 1e-9;
+
+using geometry::closest_on_triangle;
+using geometry::face_feature;
+
+/// A ray (or segment) origin + t·direction prepared for the watertight ray–triangle test of
+/// Woop, Benthin & Wald (JCGT 2013): the coordinates are permuted so that z is the dominant
+/// direction component and sheared so that the ray becomes the z axis. In that frame the
+/// 2-D edge functions of a shared edge are computed from the same numbers in both triangles,
+/// so they are exact negatives of each other and no ray slips between two triangles.
+/// (Needs the compiler not to contract a·b − c·d into a fused multiply-add differently in
+/// different places: ISO C++ mode without -ffp-contract=fast, as this project builds.)
+struct WatertightRay {
+  Vector3d origin;
+  Vector3d direction;
+  // The sheared frame as three rows: x' = shear_x·p, y' = shear_y·p, z' = shear_z·p for p
+  // relative to the origin. Each row has one entry 1 (or 1/d_kz) and one −S or zero; the others
+  // are exact zeros, so a dot product computes exactly Woop's p_kx − S_x p_kz for every vertex,
+  // whichever triangle it belongs to.
+  Vector3d shear_x, shear_y, shear_z;
+
+  WatertightRay(const Vector3d& origin_in, const Vector3d& direction_in) noexcept
+      : origin(origin_in), direction(direction_in) {
+    int kz = 0;
+    direction.cwiseAbs().maxCoeff(&kz);
+    int kx = (kz + 1) % 3;
+    int ky = (kx + 1) % 3;
+    // Keep the winding of the projected triangles when the dominant component is negative.
+    if (direction[kz] < 0) std::swap(kx, ky);
+    shear_x = Vector3d::Zero();
+    shear_y = Vector3d::Zero();
+    shear_z = Vector3d::Zero();
+    shear_x[kx] = 1;
+    shear_x[kz] = -direction[kx] / direction[kz];
+    shear_y[ky] = 1;
+    shear_y[kz] = -direction[ky] / direction[kz];
+    shear_z[kz] = 1 / direction[kz];
+  }
+};
+
+/// Where a ray meets a triangle's plane inside the triangle (either side): t (in units of the
+/// ray's direction) and whether the ray passed exactly through an edge or a vertex (some edge
+/// function zero) — a hit then, so that nothing leaks, but possibly counted twice by parity.
+/// `in_plane`: the ray lies in the triangle's plane and touches it — no hit (its neighbours
+/// report the crossing), but a parity count cannot trust that ray.
+struct Crossing {
+  double t = 0;
+  bool on_edge = false;
+  bool in_plane = false;
+};
+
+inline bool intersect(const WatertightRay& ray, const Vector3d& a, const Vector3d& b, const Vector3d& c,
+                      Crossing& crossing) noexcept {
+  const Vector3d pa = a - ray.origin;
+  const Vector3d pb = b - ray.origin;
+  const Vector3d pc = c - ray.origin;
+  const double ax = ray.shear_x.dot(pa), ay = ray.shear_y.dot(pa);
+  const double bx = ray.shear_x.dot(pb), by = ray.shear_y.dot(pb);
+  const double cx = ray.shear_x.dot(pc), cy = ray.shear_y.dot(pc);
+  // Scaled barycentric coordinates: the signed areas seen from the ray.
+  const double u = cx * by - cy * bx;
+  const double v = ax * cy - ay * cx;
+  const double w = bx * ay - by * ax;
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  const double determinant = u + v + w;
+  crossing.on_edge = u == 0 || v == 0 || w == 0;
+  if (determinant == 0) {
+    crossing.in_plane = true;
+    return false;
+  }
+  const double scaled_t = u * ray.shear_z.dot(pa) + v * ray.shear_z.dot(pb) + w * ray.shear_z.dot(pc);
+  crossing.t = scaled_t / determinant;
+  return true;
+}
+
+/// Work done by one query, added to the caller's counters at the end (local counts avoid
+/// stores through a pointer in the loop, and vanish when `count` is false).
+struct Tally {
+  long long boxes = 0;
+  long long triangles = 0;
+};
+
+template <bool count>
+inline void report(QueryCounters* counters, const Tally& tally) noexcept {
+  if constexpr (count) {
+    counters->box_tests += tally.boxes;
+    counters->triangle_tests += tally.triangles;
+    ++counters->queries;
+  } else {
+    (void)counters;
+    (void)tally;
+  }
+}
+
+/// Fixed, irrational-looking unit directions for the parity rays: a mesh built on a grid or
+/// with symmetry is unlikely to have edges exactly along them.
+const std::array<Vector3d, 4>& parity_directions() {
+  static const std::array<Vector3d, 4> directions = {
+      Vector3d(0.5366563145999495, 0.6549300393463394, 0.5321858898237543).normalized(),
+      Vector3d(-0.7071790128412461, 0.3141592653589793, 0.6333371924213391).normalized(),
+      Vector3d(0.2718281828459045, -0.8660254037844386, 0.4195498771298743).normalized(),
+      Vector3d(-0.3819660112501051, -0.4142135623730950, -0.8263898763381267).normalized(),
+  };
+  return directions;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Queries.
+
+struct BoundingVolumeHierarchy::Traversal {
+  /// Bit k set when lane k holds a child whose box the segment m ± h meets: the separating-axis
+  /// test of segment_overlaps_centred_box, lane by lane (plain loops over the lanes, which the
+  /// compiler turns into packed instructions), as the largest (|projection| − radius) over the
+  /// six axes being ≤ 0; fl(a − b) > 0 exactly when a > b, so this is the same test. NaN, only
+  /// from overflowing coordinates, counts as separated.
+  template <class Node>
+  static inline int overlap_mask(const Node& node, const Vector3d& m, const Vector3d& h) noexcept {
+    constexpr int width = Node::width;
+    double separation[width];
+    for (int k = 0; k < width; ++k) {
+      const double mx = m.x() - node.center[0][k];
+      const double my = m.y() - node.center[1][k];
+      const double mz = m.z() - node.center[2][k];
+      double lx = mx, ly = my, lz = mz, hx = h.x(), hy = h.y(), hz = h.z();
+      if constexpr (Node::oriented) {
+        const auto& r = node.axes;
+        lx = r[0][k] * mx + r[1][k] * my + r[2][k] * mz;
+        ly = r[3][k] * mx + r[4][k] * my + r[5][k] * mz;
+        lz = r[6][k] * mx + r[7][k] * my + r[8][k] * mz;
+        hx = r[0][k] * h.x() + r[1][k] * h.y() + r[2][k] * h.z();
+        hy = r[3][k] * h.x() + r[4][k] * h.y() + r[5][k] * h.z();
+        hz = r[6][k] * h.x() + r[7][k] * h.y() + r[8][k] * h.z();
+      }
+      const double ax = std::abs(hx), ay = std::abs(hy), az = std::abs(hz);
+      const double ex = node.half_extents[0][k], ey = node.half_extents[1][k], ez = node.half_extents[2][k];
+      double worst = std::abs(lx) - (ex + ax);
+      worst = std::max(worst, std::abs(ly) - (ey + ay));
+      worst = std::max(worst, std::abs(lz) - (ez + az));
+      worst = std::max(worst, std::abs(ly * hz - lz * hy) - (ey * az + ez * ay));
+      worst = std::max(worst, std::abs(lz * hx - lx * hz) - (ex * az + ez * ax));
+      worst = std::max(worst, std::abs(lx * hy - ly * hx) - (ex * ay + ey * ax));
+      separation[k] = worst;
+    }
+    int mask = 0;
+    for (int k = 0; k < width; ++k) mask |= (separation[k] <= 0 ? 1 : 0) << k;
+    return mask & node.lanes;
+  }
+
+  /// Squared distances from x to the lanes' boxes [m²].
+  template <class Node>
+  static inline void squared_distances(const Node& node, const Vector3d& x, double (&distance)[Node::width]) noexcept {
+    for (int k = 0; k < Node::width; ++k) {
+      const double mx = x.x() - node.center[0][k];
+      const double my = x.y() - node.center[1][k];
+      const double mz = x.z() - node.center[2][k];
+      double lx = mx, ly = my, lz = mz;
+      if constexpr (Node::oriented) {
+        const auto& r = node.axes;
+        lx = r[0][k] * mx + r[1][k] * my + r[2][k] * mz;
+        ly = r[3][k] * mx + r[4][k] * my + r[5][k] * mz;
+        lz = r[6][k] * mx + r[7][k] * my + r[8][k] * mz;
+      }
+      const double dx = std::max(std::abs(lx) - node.half_extents[0][k], 0.0);
+      const double dy = std::max(std::abs(ly) - node.half_extents[1][k], 0.0);
+      const double dz = std::max(std::abs(lz) - node.half_extents[2][k], 0.0);
+      distance[k] = dx * dx + dy * dy + dz * dz;
+    }
+  }
+
+  /// Starts loading the inner children's nodes while this node's boxes are tested: the next
+  /// node is one of them, and its address does not depend on the test.
+  template <class Node>
+  static void prefetch_children(const std::vector<Node>& all, const Node& node) noexcept {
+    for (int k = 0; k < Node::width; ++k) {
+      if ((node.lanes >> k & 1) == 0 || node.count[k] != 0) continue;
+      const char* address = reinterpret_cast<const char*>(&all[node.child[k]]);
+      for (std::size_t line = 0; line < sizeof(Node); line += 64) __builtin_prefetch(address + line);
+    }
+  }
+
+  /// The lanes in the order a query running along `direction` meets them: of two sibling
+  /// children (lanes 2g, 2g + 1) the one whose centre comes first, and for W = 4 first the
+  /// pair whose centres come first.
+  template <class Node>
+  static inline void visiting_order(const Node& node, const Vector3d& direction, int (&order)[Node::width]) noexcept {
+    const auto along = [&](int from, int to) {
+      return (node.center[0][to] - node.center[0][from]) * direction.x() +
+             (node.center[1][to] - node.center[1][from]) * direction.y() +
+             (node.center[2][to] - node.center[2][from]) * direction.z();
+    };
+    if constexpr (Node::width == 2) {
+      const int first = along(0, 1) >= 0 ? 0 : 1;
+      order[0] = first;
+      order[1] = 1 - first;
+    } else {
+      const double pairs = (node.center[0][2] + node.center[0][3] - node.center[0][0] - node.center[0][1]) * direction.x() +
+                           (node.center[1][2] + node.center[1][3] - node.center[1][0] - node.center[1][1]) * direction.y() +
+                           (node.center[2][2] + node.center[2][3] - node.center[2][0] - node.center[2][1]) * direction.z();
+      const int near = pairs >= 0 ? 0 : 2;
+      const int far = 2 - near;
+      const int near_first = along(near, near + 1) >= 0 ? 0 : 1;
+      const int far_first = along(far, far + 1) >= 0 ? 0 : 1;
+      order[0] = near + near_first;
+      order[1] = near + 1 - near_first;
+      order[2] = far + far_first;
+      order[3] = far + 1 - far_first;
+    }
+  }
+
+  /// Calls f with the tree's node vector (its type decides the traversal's instantiation).
+  template <class F>
+  static decltype(auto) with_nodes(const BoundingVolumeHierarchy& bvh, F&& f) noexcept {
+    const bool binary_width = bvh.settings_.children_per_node == 2;
+    if (bvh.settings_.bounding_volume == BoundingVolume::obb) {
+      return binary_width ? f(bvh.obb2_) : f(bvh.obb4_);
+    }
+    return binary_width ? f(bvh.aabb2_) : f(bvh.aabb4_);
+  }
+
+  /// The nearest hit so far: the segment the boxes are tested against ends there.
+  struct Nearest {
+    double t;
+    int slot = -1;
+    Vector3d middle, half;
+  };
+
+  template <bool count>
+  static void hit_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
+                       Nearest& nearest, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      Crossing crossing;
+      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) continue;
+      // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
+      if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
+        nearest.t = crossing.t;
+        nearest.slot = slot;
+        nearest.half = (0.5 * crossing.t) * ray.direction;
+        nearest.middle = ray.origin + nearest.half;
+      }
+    }
+  }
+
+  /// First hit of origin + t·direction for 0 ≤ t ≤ t_end: all children of an entered node are
+  /// tested at once, leaves among them at once, the nearest inner child entered next and the
+  /// others stacked (nearer on top); every hit shortens the segment later boxes are tested
+  /// against, which prunes every box beyond it.
+  template <class Node, bool count>
+  static Nearest first_hit(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
+                           double t_end, Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    Nearest nearest;
+    nearest.t = t_end;
+    nearest.half = (0.5 * t_end) * ray.direction;
+    nearest.middle = ray.origin + nearest.half;
+    int index = 0;
+    const EntryGrid& grid = bvh.grid_;
+    if (grid.cell_m > 0 && 2 * nearest.half.cwiseAbs().maxCoeff() <= grid.reach_m) {
+      // A short move: start below the root, at the entry node of the start's cell.
+      const Vector3d cell = (ray.origin - grid.origin) / grid.cell_m;
+      if (!(cell.minCoeff() >= 0 && cell.x() < grid.dims.x() && cell.y() < grid.dims.y() && cell.z() < grid.dims.z())) {
+        return nearest;
+      }
+      index = grid.entry[static_cast<std::int64_t>(cell.x()) +
+                         grid.dims.x() * (static_cast<std::int64_t>(cell.y()) +
+                                          grid.dims.y() * static_cast<std::int64_t>(cell.z()))];
+      if (index < 0) return nearest;
+    } else {
+      if constexpr (count) ++tally.boxes;
+      if (!segment_overlaps(bvh.root_box_, nearest.middle, nearest.half)) return nearest;
+      if (all.empty()) {
+        hit_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, nearest, tally);
+        return nearest;
+      }
+    }
+    std::array<int, max_stack> stack;
+    int size = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      prefetch_children(all, node);
+      const int mask = overlap_mask(node, nearest.middle, nearest.half);
+      int next = -1;
+      if (mask != 0 && (mask & (mask - 1)) == 0) {
+        // One box met (the common case on a path to the surface): no ordering needed.
+        const int k = __builtin_ctz(static_cast<unsigned>(mask));
+        if (node.count[k] > 0) {
+          hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+        } else {
+          next = node.child[k];
+        }
+      } else if (mask != 0) {
+        int order[width];
+        visiting_order(node, ray.direction, order);
+        int inner[width];
+        int inner_count = 0;
+        for (int step = 0; step < width; ++step) {
+          const int k = order[step];
+          if ((mask >> k & 1) == 0) continue;
+          if (node.count[k] > 0) {
+            hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+          } else {
+            inner[inner_count++] = node.child[k];
+          }
+        }
+        if (inner_count > 0) {
+          next = inner[0];
+          for (int i = inner_count - 1; i > 0; --i) stack[size++] = inner[i];
+        }
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      if (size == 0) break;
+      index = stack[--size];
+    }
+    return nearest;
+  }
+
+  template <bool count>
+  static SurfaceHit segment(const BoundingVolumeHierarchy& bvh, const Vector3d& origin, const Vector3d& direction,
+                            double t_end, double metres_per_t, QueryCounters* counters) noexcept {
+    Tally tally;
+    const WatertightRay ray(origin, direction);
+    const Nearest nearest = with_nodes(bvh, [&](const auto& all) {
+      return first_hit<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, tally);
+    });
+    SurfaceHit hit;
+    if (nearest.slot >= 0) {
+      hit.hit = true;
+      hit.distance_m = nearest.t * metres_per_t;
+      hit.point = origin + nearest.t * direction;
+      hit.normal = bvh.face_normals_[nearest.slot];
+      hit.triangle = bvh.slot_triangle_[nearest.slot];
+    }
+    report<count>(counters, tally);
+    return hit;
+  }
+
+  /// Closest point: slot, feature, point and squared distance.
+  struct Closest {
+    int slot = -1;
+    int feature = face_feature;
+    Vector3d point = Vector3d::Zero();
+    double squared_distance = infinity;
+  };
+
+  template <bool count>
+  static void closest_in_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const Vector3d& x,
+                              Closest& best, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      // The distance to the triangle's plane is a lower bound that costs one dot product.
+      const double height = (x - corners[3 * slot]).dot(bvh.face_normals_[slot]);
+      if (height * height > best.squared_distance) continue;
+      int feature = face_feature;
+      const Vector3d point =
+          closest_on_triangle(x, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], feature);
+      const double distance = (point - x).squaredNorm();
+      // `best.slot < 0`: accept a first candidate even when squared distances overflow to +∞.
+      if (distance < best.squared_distance || best.slot < 0) {
+        best.squared_distance = distance;
+        best.slot = slot;
+        best.feature = feature;
+        best.point = point;
+      }
+    }
+  }
+
+  /// Children nearest first; a child farther than the best distance so far is skipped, a
+  /// stacked subtree that has fallen out of reach is dropped without a test. The comparisons
+  /// are strict so that the search proceeds while `best` is still +∞.
+  template <class Node, bool count>
+  static Closest closest(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const Vector3d& x,
+                         Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    Closest best;
+    if (all.empty()) {
+      closest_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), x, best, tally);
+      return best;
+    }
+    std::array<std::pair<int, double>, max_stack> stack;
+    int size = 0;
+    int index = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      prefetch_children(all, node);
+      double distance[width];
+      squared_distances(node, x, distance);
+      // The lanes within reach, sorted by distance (insertion sort of at most 4).
+      int order[width];
+      int within = 0;
+      for (int k = 0; k < width; ++k) {
+        if ((node.lanes >> k & 1) == 0 || distance[k] > best.squared_distance) continue;
+        int i = within++;
+        for (; i > 0 && distance[order[i - 1]] > distance[k]; --i) order[i] = order[i - 1];
+        order[i] = k;
+      }
+      std::pair<int, double> inner[width];
+      int inner_count = 0;
+      for (int i = 0; i < within; ++i) {
+        const int k = order[i];
+        if (distance[k] > best.squared_distance) continue;
+        if (node.count[k] > 0) {
+          closest_in_leaf<count>(bvh, node.child[k], node.count[k], x, best, tally);
+        } else {
+          inner[inner_count++] = {node.child[k], distance[k]};
+        }
+      }
+      int next = -1;
+      if (inner_count > 0) {
+        next = inner[0].first;
+        for (int i = inner_count - 1; i > 0; --i) stack[size++] = inner[i];
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      while (size > 0 && stack[size - 1].second > best.squared_distance) --size;
+      if (size == 0) break;
+      index = stack[--size].first;
+    }
+    return best;
+  }
+
+  template <bool count>
+  static Closest closest(const BoundingVolumeHierarchy& bvh, const Vector3d& x, Tally& tally) noexcept {
+    return with_nodes(bvh, [&](const auto& all) {
+      return closest<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, x, tally);
+    });
+  }
+
+  enum class Parity { even, odd, on_edge, on_surface };
+
+  /// Crossings of origin + t·direction, surface_t < t ≤ t_end, in one leaf: flips `odd` per
+  /// crossing; stops at the first ambiguous one.
+  template <bool count>
+  static Parity parity_in_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
+                               double t_end, double surface_t, bool& odd, Tally& tally) noexcept {
+    const Vector3d* corners = bvh.corners_.data();
+    for (int slot = first; slot < first + size; ++slot) {
+      if constexpr (count) ++tally.triangles;
+      Crossing crossing;
+      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) {
+        if (crossing.in_plane) return Parity::on_edge;
+        continue;
+      }
+      if (std::abs(crossing.t) <= surface_t) return Parity::on_surface;
+      if (crossing.t < 0 || crossing.t > t_end) continue;
+      if (crossing.on_edge) return Parity::on_edge;
+      odd = !odd;
+    }
+    return Parity::even;
+  }
+
+  /// Crossings of the whole segment, mod 2 (no ordering or pruning: every crossing counts).
+  template <class Node, bool count>
+  static Parity parity(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
+                       double t_end, double surface_t, Tally& tally) noexcept {
+    constexpr int width = Node::width;
+    bool odd = false;
+    if (all.empty()) {
+      const Parity result =
+          parity_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, t_end, surface_t, odd, tally);
+      if (result != Parity::even) return result;
+      return odd ? Parity::odd : Parity::even;
+    }
+    const Vector3d half = (0.5 * t_end) * ray.direction;
+    const Vector3d middle = ray.origin + half;
+    std::array<int, max_stack> stack;
+    int size = 0;
+    int index = 0;
+    for (;;) {
+      const Node& node = all[index];
+      if constexpr (count) tally.boxes += __builtin_popcount(static_cast<unsigned>(node.lanes));
+      const int mask = overlap_mask(node, middle, half);
+      int next = -1;
+      for (int k = 0; k < width; ++k) {
+        if ((mask >> k & 1) == 0) continue;
+        if (node.count[k] > 0) {
+          const Parity result = parity_in_leaf<count>(bvh, node.child[k], node.count[k], ray, t_end, surface_t, odd, tally);
+          if (result != Parity::even) return result;
+        } else if (next < 0) {
+          next = node.child[k];
+        } else {
+          stack[size++] = node.child[k];
+        }
+      }
+      if (next >= 0) {
+        index = next;
+        continue;
+      }
+      if (size == 0) break;
+      index = stack[--size];
+    }
+    return odd ? Parity::odd : Parity::even;
+  }
+
+  template <bool count>
+  static bool contains(const BoundingVolumeHierarchy& bvh, const Vector3d& x, QueryCounters* counters) noexcept {
+    Tally tally;
+    const bool inside = contains_impl<count>(bvh, x, tally);
+    report<count>(counters, tally);
+    return inside;
+  }
+
+  template <bool count>
+  static bool contains_impl(const BoundingVolumeHierarchy& bvh, const Vector3d& x, Tally& tally) noexcept {
+    if (!x.allFinite()) return false;
+    const OrientedBox& root = bvh.root_box_;
+    if constexpr (count) ++tally.boxes;
+    const Vector3d local = root.to_local(x);
+    if ((local.cwiseAbs() - root.half_extents).maxCoeff() > 0) return false;
+    const double surface_t = relative_surface_tolerance * 2 * root.half_extents.norm();
+    for (const Vector3d& direction : parity_directions()) {
+      // To where the ray leaves the root box (x is inside it).
+      const Vector3d local_direction = root.axes * direction;
+      double t_end = infinity;
+      for (int i = 0; i < 3; ++i) {
+        if (local_direction[i] == 0) continue;
+        const double face = local_direction[i] > 0 ? root.half_extents[i] : -root.half_extents[i];
+        t_end = std::min(t_end, (face - local[i]) / local_direction[i]);
+      }
+      const WatertightRay ray(x, direction);
+      const Parity result = with_nodes(bvh, [&](const auto& all) {
+        return parity<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, surface_t, tally);
+      });
+      if (result == Parity::odd) return true;
+      if (result == Parity::even) return false;
+      if (result == Parity::on_surface) break;
+    }
+    // On or next to the surface (or every ray met an edge): the pseudo-normal sign at the
+    // closest point, which is exact there.
+    const Closest closest_point = closest<count>(bvh, x, tally);
+    if (closest_point.slot < 0 || !(closest_point.squared_distance > 0)) return false;
+    const int slot = closest_point.slot;
+    return (x - closest_point.point).dot(bvh.pseudo_normal(slot, closest_point.feature)) < 0;
+  }
+};
+
+SurfaceHit BoundingVolumeHierarchy::first_hit_segment(const Vector3d& from, const Vector3d& to,
+                                                      QueryCounters* counters) const noexcept {
+  const Vector3d direction = to - from;
+  const double length = direction.norm();
+  if (!from.allFinite() || !(length > 0) || !std::isfinite(length)) {
+    if (counters != nullptr) ++counters->queries;
+    return {};
+  }
+  return counters != nullptr ? Traversal::segment<true>(*this, from, direction, 1, length, counters)
+                             : Traversal::segment<false>(*this, from, direction, 1, length, counters);
+}
+
+SurfaceHit BoundingVolumeHierarchy::first_hit_ray(const Vector3d& origin, const Vector3d& direction,
+                                                  double max_distance_m, QueryCounters* counters) const noexcept {
+  const double length = direction.norm();
+  if (!origin.allFinite() || !(length > 0) || !std::isfinite(length) || !(max_distance_m >= 0)) {
+    if (counters != nullptr) ++counters->queries;
+    return {};
+  }
+  const Vector3d unit = direction / length;
+  // Nothing lies farther than this from the origin; the box tests need a finite segment.
+  const double reach = (origin - root_box_.center).norm() + 2 * root_box_.half_extents.norm();
+  const double t_end = std::min(max_distance_m, reach);
+  return counters != nullptr ? Traversal::segment<true>(*this, origin, unit, t_end, 1, counters)
+                             : Traversal::segment<false>(*this, origin, unit, t_end, 1, counters);
+}
+
+ClosestSurfacePoint BoundingVolumeHierarchy::closest_point(const Vector3d& x, QueryCounters* counters) const noexcept {
+  ClosestSurfacePoint result;
+  if (!x.allFinite()) {
+    result.distance_m = infinity;
+    if (counters != nullptr) ++counters->queries;
+    return result;
+  }
+  Tally tally;
+  const Traversal::Closest best =
+      counters != nullptr ? Traversal::closest<true>(*this, x, tally) : Traversal::closest<false>(*this, x, tally);
+  result.point = best.point;
+  result.distance_m = std::sqrt(best.squared_distance);
+  result.triangle = best.slot >= 0 ? slot_triangle_[best.slot] : -1;
+  if (counters != nullptr) report<true>(counters, tally);
+  return result;
+}
+
+bool BoundingVolumeHierarchy::contains(const Vector3d& x, QueryCounters* counters) const noexcept {
+  return counters != nullptr ? Traversal::contains<true>(*this, x, counters)
+                             : Traversal::contains<false>(*this, x, counters);
+}
+
+}  // namespace touchstone::realtime::collision
