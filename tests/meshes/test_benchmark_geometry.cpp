@@ -1,3 +1,6 @@
+// The benchmark bodies B1–B5 and the box as gmsh meshes them: names and parameter validation,
+// each body's physical groups, measures and patch, refinement, the recorded geometry script and
+// the size law. One file, as one source file makes them; every case meshes a body once.
 #include "touchstone/meshes/benchmark_geometry.hpp"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,8 @@
+// Surface meshes in five formats: exact round trips, welding, unit scale, polygons, and every
+// broken file a user or a fuzzer produced failing with the file's name and the count or element
+// at fault (the regression tests of the fuzz findings are here, next to the reader they broke).
+// Over 600 lines because each format's broken files need their own bytes; they share the
+// writers and the temporary folder.
 #include "support/temporary_directory.hpp"
 #include "support/expect_invalid_argument.hpp"
 #include "touchstone/meshes/surface_mesh_io.hpp"
