@@ -1,3 +1,6 @@
+// `touchstone fem`: mesh every level of every problem variant, solve it with the deal.II
+// reference (or take it from the cache of finished solves), Richardson-extrapolate the force per
+// mesh family, and write results.json and the VTU/PVD series.
 #include "touchstone/studies/fem_reference/reference_study.hpp"
 
 #include "least_squares_line.hpp"

@@ -1,7 +1,10 @@
 // The palpation replay run (see the header): the real-time run on rank 0, the contacts' reference
 // solves spread over the ranks (each rank writes its contacts' records; the FEM cache makes a
-// rerun resume), the tick-by-tick comparison and the outputs on rank 0.
+// rerun resume), the tick-by-tick comparison and the outputs on rank 0. One contact's reference
+// is contact_reference.cpp.
 #include "touchstone/studies/palpation_replay.hpp"
+
+#include "contact_reference.hpp"
 
 #include "touchstone/fem/richardson.hpp"
 #include "touchstone/fem/tool_stiffness.hpp"
@@ -31,23 +34,20 @@ namespace {
 namespace fs = std::filesystem;
 namespace rt = realtime::runtime;
 using nlohmann::json;
+using replay::Contact;
+using replay::json_matrix;
+using replay::pack;
+using replay::reference_geometry;
+using replay::unpack;
+using replay::verify_contact;
 
 constexpr double pi = 3.14159265358979323846;
-
-/// The punch force converges at first order in the rim mesh size (the r^(1/2) edge singularity).
-constexpr double punch_convergence_order = 1.0;
 
 /// Frames whose reference force is below this fraction of the run's largest reference force are
 /// left out of the relative errors (a press just beginning: both forces near zero).
 constexpr double relative_error_floor = 0.05;
 
 Eigen::Vector3d json_vector(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()}; }
-Eigen::Matrix3d json_matrix(const json& j) {
-  Eigen::Matrix3d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = j.at(r).at(c).get<double>();
-  return m;
-}
 
 /// One tick of the real-time run with a model in use.
 struct Frame {
@@ -56,35 +56,6 @@ struct Frame {
   Eigen::Vector3d mfs_force_N = Eigen::Vector3d::Zero();  ///< on the tissue, push-only
   std::uint64_t model_id = 0;
 };
-
-/// A contact to verify: the model's frame, as every rank needs it.
-struct Contact {
-  std::uint64_t model_id = 0;
-  Eigen::Vector3d point_m = Eigen::Vector3d::Zero(), direction = -Eigen::Vector3d::UnitZ();
-  std::string label() const { return "model" + std::to_string(model_id); }
-};
-
-std::vector<double> pack(const std::vector<Contact>& contacts) {
-  std::vector<double> out;
-  for (const auto& c : contacts) {
-    out.push_back(static_cast<double>(c.model_id));
-    for (int k = 0; k < 3; ++k) out.push_back(c.point_m[k]);
-    for (int k = 0; k < 3; ++k) out.push_back(c.direction[k]);
-  }
-  return out;
-}
-
-std::vector<Contact> unpack(const std::vector<double>& values) {
-  std::vector<Contact> out;
-  for (std::size_t i = 0; i + 7 <= values.size(); i += 7) {
-    Contact c;
-    c.model_id = static_cast<std::uint64_t>(values[i]);
-    c.point_m = {values[i + 1], values[i + 2], values[i + 3]};
-    c.direction = {values[i + 4], values[i + 5], values[i + 6]};
-    out.push_back(c);
-  }
-  return out;
-}
 
 /// The models that gave a force, in order of first use, and the ones the study verifies.
 std::vector<std::uint64_t> select_models(const PalpationReplayStudy& study, const std::vector<Frame>& frames,
@@ -123,197 +94,6 @@ std::vector<std::uint64_t> select_models(const PalpationReplayStudy& study, cons
   return chosen;
 }
 
-/// The reference's tool stiffness at one contact and mesh level: from the cache, or meshed and
-/// solved on this rank alone (MPI_COMM_SELF). `probes` are the surface vertices whose
-/// displacement the finest level reports; `vtu_directory` gets its unit fields.
-json solve_level(const meshes::MeshParameters& geometry, const PalpationReplayStudy& study,
-                 const rt::SceneSettings& scene, const std::vector<Eigen::Vector3d>& probes,
-                 const std::string& vtu_directory, const ReplayRunOptions& options, const std::string& work_directory) {
-  json params = mesh_parameters_json(geometry);
-  params["youngs_modulus_Pa"] = scene.material.youngs_modulus_Pa;
-  params["poisson_ratio"] = scene.material.poisson_ratio;
-  params["contact"] = geometry::to_string(scene.tool.condition);
-  params["unit_depth_m"] = study.unit_depth_m;
-  params["degree"] = study.solver.degree;
-  params["solver"] = fem::to_string(study.solver.solver);
-  params["relative_tolerance"] = study.solver.relative_tolerance;
-  params["formulation"] = fem::to_string(study.solver.formulation);
-  json probe_list = json::array();
-  for (const auto& p : probes) probe_list.push_back(vector_json(p));
-  params["probes_sha256"] = sha256_hex(probe_list.dump());
-  const std::string key = sha256_hex(params.dump() + touchstone::version::fem_source_hash + "deal.II-9.4");
-  const std::string entry = options.cache_directory.empty()
-                                ? (fs::path(work_directory) / key.substr(0, 24)).string()
-                                : options.cache_directory + "/replay/" + key.substr(0, 24);
-  const std::string record_path = entry + "/stiffness.json";
-  if (!options.cache_directory.empty() && fs::exists(record_path)) {
-    try {
-      json record = json::parse(read_file(record_path));
-      record["cached"] = true;
-      record["entry"] = entry;
-      return record;
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "note: cache entry %s cannot be read (%s): solving again\n", record_path.c_str(), e.what());
-    }
-  }
-  fs::create_directories(entry);
-  const std::string msh_path = entry + "/mesh.msh";
-  const meshes::MeshSummary mesh = meshes::generate_mesh(geometry, msh_path);
-
-  fem::ElasticityProblem problem;
-  problem.mesh_path = msh_path;
-  problem.material = scene.material;
-  problem.solver = study.solver;
-  fem::RigidPunch punch;
-  punch.depth_m = study.unit_depth_m;
-  punch.direction = Eigen::Vector3d(geometry.organ.tool_axis[0], geometry.organ.tool_axis[1], geometry.organ.tool_axis[2]);
-  punch.contact = scene.tool.condition;
-  problem.punch = punch;
-  problem.probes = probes;
-  if (!vtu_directory.empty()) {
-    problem.vtu_directory = entry;
-    problem.vtu_basename = "unit";
-  }
-  const fem::ToolStiffness k = fem::solve_tool_stiffness(problem, MPI_COMM_SELF);
-  json unit_maps = json::array();
-  for (std::size_t p = 0; p < probes.size(); ++p)
-    unit_maps.push_back(k.probe_found[p] ? matrix_json(k.probe_displacement_per_displacement[p]) : json(nullptr));
-  json record{{"params", params},
-              {"stiffness_N_per_m", matrix_json(k.force_per_displacement_N_per_m)},
-              {"dofs", k.dof_count},
-              {"tetrahedra", mesh.tetrahedron_count},
-              {"solves", k.solves},
-              {"seconds", k.seconds + mesh.seconds},
-              {"mesh_seconds", mesh.seconds},
-              {"probe_unit_maps", unit_maps},
-              {"cached", false}};
-  write_file_atomically(record_path, record.dump(1) + "\n");
-  record["entry"] = entry;
-  return record;
-}
-
-/// The reference's organ problem of the study and the scene, its contact not yet set.
-meshes::MeshParameters reference_geometry(const PalpationReplayStudy& study, const rt::SceneSettings& scene,
-                                          const std::string& organ_file, double organ_unit_scale) {
-  meshes::MeshParameters g;
-  g.benchmark = meshes::Benchmark::Organ;
-  g.tool_radius_m = scene.tool.tip_radius_m;
-  g.local_radius_m = scene.model.sprinkling.local_radius_m;
-  g.edge_size_m = study.edge_size_m;
-  g.size_growth = study.size_growth;
-  g.size_exponent = study.size_exponent;
-  g.max_size_m = study.max_size_m;
-  g.organ.surface_path = organ_file;
-  g.organ.unit_scale = organ_unit_scale;
-  g.organ.attachment = study.attachment;
-  g.organ.feature_angle_rad = study.feature_angle_rad;
-  return g;
-}
-
-/// One contact's reference (levels, Richardson) and the real-time model rebuilt at the same
-/// contact: K_t again (the run's must be reproduced exactly) and its surface deformation map.
-json verify_contact(const Contact& contact, const PalpationReplayStudy& study, const SimScene& scene,
-                    const geometry::TriangleSurface& organ, const std::string& organ_file, double organ_unit_scale,
-                    const ReplayRunOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const rt::SceneSettings& s = scene.settings;
-  realtime::mfs::ToolContact tool;
-  tool.point = contact.point_m;
-  tool.direction = contact.direction;
-  tool.radius_m = s.tool.tip_radius_m;
-  tool.condition = s.tool.condition;
-  const realtime::mfs::LocalModel model = realtime::mfs::build_local_model(
-      organ, tool, s.material, s.model, {}, realtime::mfs::exterior_from_atlas(s.organ_atlas));
-  if (!model.ok()) throw std::runtime_error(contact.label() + ": the rebuilt local model failed: " + model.status);
-  const rt::DeformationMap map = rt::make_deformation_map(model, organ, contact.model_id);
-  // A surface vertex at a convex corner of the input can lie outside the reference's remeshed
-  // surface (its facets cut the input's corners: tens of micrometres on a coarse organ); the
-  // probe sits 0.02 a inside along d. The field there differs from the surface's by about
-  // 0.02 a |grad u|, a per cent or two of the displacement at the patch, less farther out.
-  const double probe_inset_m = 0.02 * s.tool.tip_radius_m;
-  std::vector<Eigen::Vector3d> probes;
-  for (const int v : map.vertices)
-    probes.push_back(organ.vertices()[static_cast<std::size_t>(v)] + probe_inset_m * contact.direction);
-
-  meshes::MeshParameters g = reference_geometry(study, s, organ_file, organ_unit_scale);
-  g.organ.contact_point_m = {contact.point_m.x(), contact.point_m.y(), contact.point_m.z()};
-  g.organ.tool_axis = {contact.direction.x(), contact.direction.y(), contact.direction.z()};
-
-  const std::string work = (fs::path(options.output_directory) / "work").string();
-  std::vector<json> levels;
-  for (int level = 0; level < study.levels; ++level) {
-    g.refinement = level;
-    const bool finest = level + 1 == study.levels;
-    levels.push_back(solve_level(g, study, s, finest ? probes : std::vector<Eigen::Vector3d>{}, finest ? "vtu" : "",
-                                 options, work));
-    if (!options.quiet)
-      std::printf("[rank %u] %s level %d: %zu dofs, k = %.6g N/m (%s)\n", fem::MpiSession::rank(), contact.label().c_str(),
-                  level, levels.back().at("dofs").get<std::size_t>(),
-                  contact.direction.dot(json_matrix(levels.back().at("stiffness_N_per_m")) * contact.direction),
-                  levels.back().value("cached", false) ? "cached" : "solved");
-    std::fflush(stdout);
-  }
-
-  // Richardson with the axial entry's observed order for every entry: the extrapolated K is one
-  // linear combination of the two finest levels.
-  const Eigen::Vector3d d = contact.direction;
-  std::vector<double> axial;
-  for (const auto& l : levels) axial.push_back(d.dot(json_matrix(l.at("stiffness_N_per_m")) * d));
-  const Eigen::Matrix3d finest = json_matrix(levels.back().at("stiffness_N_per_m"));
-  Eigen::Matrix3d k_ref = finest;
-  json convergence{{"levels_axial_N_per_m", axial}};
-  double uncertainty = std::numeric_limits<double>::quiet_NaN();
-  if (levels.size() >= 3) {
-    const fem::RichardsonEstimate r = fem::richardson_extrapolate(axial, 2.0, punch_convergence_order);
-    const double order = std::isfinite(r.observed_order) && r.observed_order > 0 ? r.observed_order : punch_convergence_order;
-    const Eigen::Matrix3d previous = json_matrix(levels[levels.size() - 2].at("stiffness_N_per_m"));
-    k_ref = finest + (finest - previous) / (std::pow(2.0, order) - 1);
-    // The estimate: the extrapolation's own uncertainty, and never below the change it made.
-    uncertainty = std::max(r.extrapolated_relative_uncertainty, std::abs(r.extrapolated - axial.back()) / std::abs(r.extrapolated));
-    convergence["observed_order"] = json_number(r.observed_order);
-    convergence["asymptotic"] = r.asymptotic;
-    convergence["finest_relative_error"] = r.finest_relative_error;
-  } else if (levels.size() == 2) {
-    uncertainty = std::abs(axial[1] - axial[0]) / std::abs(axial[1]);
-  }
-  convergence["relative_uncertainty"] = json_number(uncertainty);
-
-  // The displacement maps at the local vertices: the MFS's G_v and the reference's D_v.
-  json vertices = json::array();
-  const json& unit_maps = levels.back().at("probe_unit_maps");
-  for (std::size_t i = 0; i < map.vertices.size(); ++i)
-    vertices.push_back({{"vertex", map.vertices[i]},
-                        {"mfs", matrix_json(map.unit_maps[i])},
-                        {"mfs_offset_m", vector_json(map.load_offsets[i])},
-                        {"reference", unit_maps.at(i)}});
-  json solved_levels = json::array();
-  for (const auto& l : levels)
-    solved_levels.push_back({{"dofs", l.at("dofs")}, {"tetrahedra", l.at("tetrahedra")},
-                             {"stiffness_N_per_m", l.at("stiffness_N_per_m")}, {"seconds", l.at("seconds")},
-                             {"cached", l.value("cached", false)}});
-  // The finest level's unit fields beside the surface files, for ParaView.
-  json reference_vtu = json::array();
-  const fs::path paraview = fs::path(options.output_directory) / "paraview";
-  fs::create_directories(paraview);
-  for (const auto& file : fs::directory_iterator(levels.back().at("entry").get<std::string>())) {
-    const auto ext = file.path().extension();
-    if (ext != ".vtu" && ext != ".pvtu") continue;
-    const std::string name = contact.label() + "_reference_" + file.path().filename().string();
-    fs::copy_file(file.path(), paraview / name, fs::copy_options::overwrite_existing);
-    reference_vtu.push_back("paraview/" + name);
-  }
-  return {{"model_id", contact.model_id},
-          {"label", contact.label()},
-          {"rank", fem::MpiSession::rank()},
-          {"rebuilt_tool_stiffness_N_per_m", matrix_json(model.tool_stiffness_N_per_m)},
-          {"reference_stiffness_N_per_m", matrix_json(k_ref)},
-          {"levels", solved_levels},
-          {"convergence", convergence},
-          {"vertices", vertices},
-          {"outside_supports", map.outside_supports},
-          {"reference_vtu", reference_vtu},
-          {"seconds", seconds_since(start)}};
-}
 
 /// |F_mfs − F_ref| statistics over a set of frames.
 struct ErrorSums {
@@ -327,6 +107,272 @@ double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
+
+/// The real-time run of the scene (rank 0): its ticks with a model in use, its summary and the
+/// contacts the study verifies. Throws std::invalid_argument for a run there is nothing to verify
+/// in.
+struct RealtimeRun {
+  std::vector<Frame> frames;
+  json summary;
+  std::vector<Contact> contacts;
+  double seconds = 0;
+};
+
+RealtimeRun run_realtime(const PalpationReplayStudy& study, const SimScene& scene, const ReplayRunOptions& options,
+                         const fs::path& out, const std::string& realtime_directory, const std::string& organ_file) {
+  RealtimeRun run;
+  fs::create_directories(out);
+  SimOptions sim;
+  sim.virtual_clock = true;
+  sim.output_directory = realtime_directory;
+  sim.replay_path = study.recording_path;
+  if (study.duration_s > 0) sim.duration_s = study.duration_s;
+  sim.print = !options.quiet;
+  sim.force_history_observer = [&run](const std::vector<rt::ForceSample>& chunk) {
+    for (const auto& s : chunk)
+      if (s.model_id != 0 && run.frames.size() < rt::max_force_history_samples)
+        run.frames.push_back({s.time_s, s.tip_m, s.exact_N, s.model_id});
+  };
+  const auto sim_start = std::chrono::steady_clock::now();
+  run.summary = run_sim(scene, sim);
+  run.seconds = seconds_since(sim_start);
+  if (run.frames.size() >= rt::max_force_history_samples)
+    throw std::invalid_argument("the run pressed for more than " + std::to_string(rt::max_force_history_samples) +
+                                " ticks, more than a replay keeps: shorten [replay] duration");
+  if (run.frames.empty())
+    throw std::invalid_argument(
+        (study.recording_path.empty() ? "the scene's device (" + study.scene_path + ")" : "the recording '" + study.recording_path + "'") +
+        " never presses the organ '" + organ_file + "' with a model in use: nothing to verify (a recording made on another organ, or in other units?)");
+  const auto chosen = select_models(study, run.frames, options.only);
+  if (chosen.empty()) throw std::invalid_argument("--only selects none of the run's contacts (they are named model<id>)");
+  for (const auto& m : run.summary.at("models")) {
+    const auto id = m.at("model_id").get<std::uint64_t>();
+    if (std::find(chosen.begin(), chosen.end(), id) != chosen.end())
+      run.contacts.push_back({id, json_vector(m.at("contact_point_m")), json_vector(m.at("direction"))});
+  }
+  if (run.contacts.size() != chosen.size())
+    throw std::runtime_error("the run's model records miss some of its contacts (more models than it keeps records of)");
+  return run;
+}
+
+/// Tick by tick: each verified tick's MFS force against K_ref (tip − c) of its contact, and the
+/// surface displacements of both models; writes frames.csv.
+struct TickComparison {
+  ErrorSums total;
+  std::map<std::uint64_t, ErrorSums> per_contact;
+  std::map<std::uint64_t, std::pair<double, Eigen::Vector3d>> deepest;  ///< depth [m], U [m]
+  std::map<std::uint64_t, std::pair<double, double>> displacement_sums;  ///< Σ|u_mfs − u_ref|², Σ|u_ref|² [m²]
+  std::pair<double, double> total_displacement{0.0, 0.0};
+  double max_reference_N = 0;
+  double floor_N = 0;  ///< references below this are left out of the relative errors
+  json worst_frames = json::array();
+  json series = json::array();  ///< decimated for the report's plot
+};
+
+TickComparison compare_ticks(const std::vector<Frame>& frames, const std::map<std::uint64_t, json>& verified,
+                             const std::map<std::uint64_t, json>& run_models, const fs::path& out) {
+  TickComparison ticks;
+  // Per contact, the local vertices both models give a displacement at: G_v (MFS) and D_v
+  // (reference), each per unit tool displacement.
+  struct VertexMaps {
+    std::vector<Eigen::Matrix3d> mfs, reference;
+  };
+  std::map<std::uint64_t, VertexMaps> vertex_maps;
+  for (const auto& [id, v] : verified) {
+    VertexMaps& maps = vertex_maps[id];
+    for (const auto& vertex : v.at("vertices")) {
+      if (vertex.at("reference").is_null()) continue;
+      maps.mfs.push_back(json_matrix(vertex.at("mfs")));
+      maps.reference.push_back(json_matrix(vertex.at("reference")));
+    }
+  }
+
+  for (const auto& f : frames) {
+    auto it = verified.find(f.model_id);
+    if (it == verified.end()) continue;
+    const json& m = run_models.at(f.model_id);
+    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
+    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * (f.tip_m - c), d);
+    ticks.max_reference_N = std::max(ticks.max_reference_N, reference.norm());
+  }
+  ticks.floor_N = relative_error_floor * ticks.max_reference_N;
+
+  AtomicFileWriter frames_csv((out / "frames.csv").string());
+  frames_csv.append("time_s,model_id,tip_x_m,tip_y_m,tip_z_m,depth_m,mfs_x_N,mfs_y_N,mfs_z_N,reference_x_N,reference_y_N,"
+                    "reference_z_N,error_N,relative_error,angle_deg,displacement_error\n");
+  struct Worst {
+    double time_s, error_N, relative;
+    std::uint64_t model_id;
+  };
+  std::vector<Worst> worst;
+  const std::size_t stride = std::max<std::size_t>(1, frames.size() / 4000);
+  std::size_t index = 0;
+  char line[640];
+  for (const auto& f : frames) {
+    auto it = verified.find(f.model_id);
+    if (it == verified.end()) continue;
+    const json& m = run_models.at(f.model_id);
+    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
+    const Eigen::Vector3d u = f.tip_m - c;
+    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * u, d);
+    const double error = (f.mfs_force_N - reference).norm();
+    const double relative = reference.norm() >= ticks.floor_N && ticks.floor_N > 0 ? error / reference.norm() : std::nan("");
+    const double angle = angle_between(f.mfs_force_N, reference);
+    // The surface displacement of the local vertices at this tick (both linear in U).
+    const VertexMaps& maps = vertex_maps.at(f.model_id);
+    double displacement_difference_sq = 0, displacement_reference_sq = 0;
+    for (std::size_t k = 0; k < maps.mfs.size(); ++k) {
+      const Eigen::Vector3d ur = maps.reference[k] * u;
+      displacement_difference_sq += (maps.mfs[k] * u - ur).squaredNorm();
+      displacement_reference_sq += ur.squaredNorm();
+    }
+    ticks.displacement_sums[f.model_id].first += displacement_difference_sq;
+    ticks.displacement_sums[f.model_id].second += displacement_reference_sq;
+    ticks.total_displacement.first += displacement_difference_sq;
+    ticks.total_displacement.second += displacement_reference_sq;
+    const double displacement_error =
+        displacement_reference_sq > 0 ? std::sqrt(displacement_difference_sq / displacement_reference_sq) : std::nan("");
+    for (ErrorSums* sums : {&ticks.total, &ticks.per_contact[f.model_id]}) {
+      sums->difference_sq += error * error;
+      sums->reference_sq += reference.squaredNorm();
+      sums->max_abs_N = std::max(sums->max_abs_N, error);
+      ++sums->frames;
+      if (std::isfinite(relative)) {
+        sums->max_rel = std::max(sums->max_rel, relative);
+        sums->max_angle_rad = std::max(sums->max_angle_rad, angle);
+        ++sums->relative_frames;
+      }
+    }
+    const double depth = u.dot(d);
+    auto& deep = ticks.deepest[f.model_id];
+    if (depth > deep.first) deep = {depth, u};
+    worst.push_back({f.time_s, error, relative, f.model_id});
+    const int n = std::snprintf(line, sizeof line, "%.6f,%llu,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.6g,%.6g,%.6g,%.6g\n",
+                                f.time_s, static_cast<unsigned long long>(f.model_id), f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), depth,
+                                f.mfs_force_N.x(), f.mfs_force_N.y(), f.mfs_force_N.z(), reference.x(), reference.y(), reference.z(),
+                                error, relative, angle * 180 / pi, displacement_error);
+    frames_csv.append(std::string(line, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof line) - 1))));
+    if (index++ % stride == 0)
+      ticks.series.push_back({f.time_s, f.model_id, f.mfs_force_N.norm(), reference.norm(), std::isfinite(relative) ? json(relative) : json(nullptr),
+                        angle * 180 / pi, json_number(displacement_error)});
+  }
+  frames_csv.commit();
+  std::sort(worst.begin(), worst.end(), [](const Worst& a, const Worst& b) { return a.error_N > b.error_N; });
+  for (std::size_t i = 0; i < worst.size() && i < 10; ++i)
+    ticks.worst_frames.push_back({{"time_s", worst[i].time_s}, {"model_id", worst[i].model_id}, {"error_N", worst[i].error_N},
+                            {"relative_error", json_number(worst[i].relative)}});
+  return ticks;
+}
+
+/// Per contact: stiffness, force errors, displacements at the deepest press, and its ParaView
+/// surface; writes contacts.csv and paraview/contacts.pvd.
+struct ContactRows {
+  json rows = json::array();
+  double error_sq = 0;          ///< Σ over contacts of (relative L2 force error)²
+  double rebuild_mismatch = 0;  ///< largest ‖K_t rebuilt − K_t of the run‖ / ‖K_t‖
+};
+
+ContactRows write_contact_outputs(const std::vector<Contact>& contacts, const std::map<std::uint64_t, json>& verified,
+                                  const std::map<std::uint64_t, json>& run_models, TickComparison& ticks,
+                                  const geometry::TriangleSurface& organ, const fs::path& out) {
+  ContactRows result;
+  char line[640];
+  const fs::path paraview = out / "paraview";
+  fs::create_directories(paraview);
+  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
+  AtomicFileWriter contacts_csv((out / "contacts.csv").string());
+  contacts_csv.append("model_id,reason,time_s,frames,x_m,y_m,z_m,k_mfs_N_per_m,k_reference_N_per_m,stiffness_error,"
+                      "force_error_l2,force_error_max_N,reference_uncertainty,displacement_error_l2,exterior,dofs_finest\n");
+  for (const auto& c : contacts) {
+    const json& v = verified.at(c.model_id);
+    const json& m = run_models.at(c.model_id);
+    const Eigen::Vector3d d = c.direction;
+    const Eigen::Matrix3d k_mfs = json_matrix(m.at("tool_stiffness_N_per_m"));
+    const Eigen::Matrix3d k_ref = json_matrix(v.at("reference_stiffness_N_per_m"));
+    const Eigen::Matrix3d k_rebuilt = json_matrix(v.at("rebuilt_tool_stiffness_N_per_m"));
+    result.rebuild_mismatch = std::max(result.rebuild_mismatch, (k_rebuilt - k_mfs).norm() / k_mfs.norm());
+    const double kn_mfs = d.dot(k_mfs * d), kn_ref = d.dot(k_ref * d);
+    const ErrorSums& e = ticks.per_contact[c.model_id];
+    result.error_sq += e.relative_l2() * e.relative_l2();
+
+    // Surface displacements at the ticks.deepest press: u_v = G_v U (MFS), D_v U (reference).
+    const Eigen::Vector3d u_deep = ticks.deepest[c.model_id].second;
+    std::vector<Eigen::Vector3d> u_mfs(organ.vertices().size(), Eigen::Vector3d::Zero()), u_ref = u_mfs, u_diff = u_mfs;
+    double diff_sq = 0, ref_sq = 0;
+    long long found = 0, compared = 0;
+    for (const auto& vertex : v.at("vertices")) {
+      const auto index_v = vertex.at("vertex").get<std::size_t>();
+      ++compared;
+      u_mfs[index_v] = json_matrix(vertex.at("mfs")) * u_deep;  // the tool's part: the reference has no body loads
+      if (vertex.at("reference").is_null()) continue;
+      ++found;
+      u_ref[index_v] = json_matrix(vertex.at("reference")) * u_deep;
+      u_diff[index_v] = u_mfs[index_v] - u_ref[index_v];
+      diff_sq += u_diff[index_v].squaredNorm();
+      ref_sq += u_ref[index_v].squaredNorm();
+    }
+    const double displacement_error = ref_sq > 0 ? std::sqrt(diff_sq / ref_sq) : std::nan("");
+    // The split: how much of the difference is one translation of the whole local region (the
+    // organ moving as a body, which a field confined to the ball cannot show).
+    Eigen::Vector3d mean_difference = Eigen::Vector3d::Zero();
+    for (const auto& vertex : v.at("vertices"))
+      if (!vertex.at("reference").is_null()) mean_difference += u_diff[vertex.at("vertex").get<std::size_t>()];
+    if (found > 0) mean_difference /= static_cast<double>(found);
+    const double translated_sq = diff_sq - static_cast<double>(found) * mean_difference.squaredNorm();
+    const double displacement_error_local = ref_sq > 0 ? std::sqrt(std::max(0.0, translated_sq) / ref_sq) : std::nan("");
+    const std::string vtp = c.label() + "_surface.vtp";
+    meshes::SurfaceWriteOptions write;
+    write.point_vectors = {{"displacement_mfs_m", u_mfs}, {"displacement_reference_m", u_ref}, {"difference_m", u_diff}};
+    meshes::write_surface_mesh((paraview / vtp).string(), organ.vertices(), organ.triangles(), write);
+    pvd += "    <DataSet timestep=\"" + format_number(m.at("adopted_s").get<double>()) + "\" file=\"" + vtp + "\"/>\n";
+
+    json row{{"model_id", c.model_id},
+             {"label", c.label()},
+             {"reason", m.at("reason")},
+             {"adopted_s", m.at("adopted_s")},
+             {"contact_point_m", m.at("contact_point_m")},
+             {"direction", m.at("direction")},
+             {"exterior_used", m.at("exterior_used")},
+             {"node_count", m.at("node_count")},
+             {"mfs_stiffness_N_per_m", m.at("tool_stiffness_N_per_m")},
+             {"reference_stiffness_N_per_m", v.at("reference_stiffness_N_per_m")},
+             {"axial_stiffness_mfs_N_per_m", kn_mfs},
+             {"axial_stiffness_reference_N_per_m", kn_ref},
+             {"stiffness_error", kn_mfs / kn_ref - 1},
+             {"frames", e.frames},
+             {"force_error_l2", e.relative_l2()},
+             {"force_error_max_N", e.max_abs_N},
+             {"force_error_max_relative", e.relative_frames > 0 ? json(e.max_rel) : json(nullptr)},
+             {"force_angle_max_deg", e.max_angle_rad * 180 / pi},
+             {"reference_convergence", v.at("convergence")},
+             {"reference_levels", v.at("levels")},
+             {"deepest_press_m", ticks.deepest[c.model_id].first},
+             {"displacement_error_l2", json_number(displacement_error)},
+             {"displacement_mean_difference_m", vector_json(mean_difference)},
+             {"displacement_error_l2_without_mean", json_number(displacement_error_local)},
+             {"displacement_error_l2_over_ticks",
+              json_number(ticks.displacement_sums[c.model_id].second > 0
+                              ? std::sqrt(ticks.displacement_sums[c.model_id].first / ticks.displacement_sums[c.model_id].second)
+                              : std::nan(""))},
+             {"displacement_vertices", compared},
+             {"displacement_vertices_found", found},
+             {"paraview_surface", "paraview/" + vtp},
+             {"paraview_reference", v.at("reference_vtu")},
+             {"solved_on_rank", v.at("rank")},
+             {"seconds", v.at("seconds")}};
+    result.rows.push_back(row);
+    std::snprintf(line, sizeof line, "%llu,%s,%.6f,%lld,%.17g,%.17g,%.17g,%.9g,%.9g,%.6g,%.6g,%.6g,%.6g,%.6g,%s,%zu\n",
+                  static_cast<unsigned long long>(c.model_id), m.at("reason").get<std::string>().c_str(), m.at("adopted_s").get<double>(),
+                  e.frames, c.point_m.x(), c.point_m.y(), c.point_m.z(), kn_mfs, kn_ref, kn_mfs / kn_ref - 1, e.relative_l2(),
+                  e.max_abs_N, value_or_nan(v.at("convergence"), "relative_uncertainty"), displacement_error,
+                  m.at("exterior_used").get<std::string>().c_str(), v.at("levels").back().at("dofs").get<std::size_t>());
+    contacts_csv.append(line);
+  }
+  contacts_csv.commit();
+  pvd += "  </Collection>\n</VTKFile>\n";
+  write_file_atomically((paraview / "contacts.pvd").string(), pvd);
+  return result;
+}
 
 }  // namespace
 
@@ -378,44 +424,11 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
     std::printf("%s: note: %s\n", study.name.c_str(), atlas_agreement.at("note").get<std::string>().c_str());
 
   // 1. The real-time run (rank 0), and the contacts every rank needs.
-  std::vector<Frame> frames;
-  json realtime_summary;
-  std::vector<Contact> contacts;
+  RealtimeRun realtime;
   std::string failure;
-  double realtime_seconds = 0;
   if (rank0) {
     try {
-      fs::create_directories(out);
-      SimOptions sim;
-      sim.virtual_clock = true;
-      sim.output_directory = realtime_directory;
-      sim.replay_path = study.recording_path;
-      if (study.duration_s > 0) sim.duration_s = study.duration_s;
-      sim.print = !options.quiet;
-      sim.force_history_observer = [&frames](const std::vector<rt::ForceSample>& chunk) {
-        for (const auto& s : chunk)
-          if (s.model_id != 0 && frames.size() < rt::max_force_history_samples)
-            frames.push_back({s.time_s, s.tip_m, s.exact_N, s.model_id});
-      };
-      const auto sim_start = std::chrono::steady_clock::now();
-      realtime_summary = run_sim(scene, sim);
-      realtime_seconds = seconds_since(sim_start);
-      if (frames.size() >= rt::max_force_history_samples)
-        throw std::invalid_argument("the run pressed for more than " + std::to_string(rt::max_force_history_samples) +
-                                    " ticks, more than a replay keeps: shorten [replay] duration");
-      if (frames.empty())
-        throw std::invalid_argument(
-            (study.recording_path.empty() ? "the scene's device (" + study.scene_path + ")" : "the recording '" + study.recording_path + "'") +
-            " never presses the organ '" + organ_file + "' with a model in use: nothing to verify (a recording made on another organ, or in other units?)");
-      const auto chosen = select_models(study, frames, options.only);
-      if (chosen.empty()) throw std::invalid_argument("--only selects none of the run's contacts (they are named model<id>)");
-      for (const auto& m : realtime_summary.at("models")) {
-        const auto id = m.at("model_id").get<std::uint64_t>();
-        if (std::find(chosen.begin(), chosen.end(), id) != chosen.end())
-          contacts.push_back({id, json_vector(m.at("contact_point_m")), json_vector(m.at("direction"))});
-      }
-      if (contacts.size() != chosen.size())
-        throw std::runtime_error("the run's model records miss some of its contacts (more models than it keeps records of)");
+      realtime = run_realtime(study, scene, options, out, realtime_directory, organ_file);
     } catch (const std::exception& e) {
       failure = e.what();
     }
@@ -423,9 +436,9 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
   std::vector<double> status{failure.empty() ? 0.0 : 1.0};
   fem::MpiSession::broadcast_from_root(status);
   if (status[0] != 0) throw std::runtime_error(rank0 ? failure : "the real-time run on rank 0 failed");
-  std::vector<double> packed = pack(contacts);
+  std::vector<double> packed = pack(realtime.contacts);
   fem::MpiSession::broadcast_from_root(packed);
-  contacts = unpack(packed);
+  const std::vector<Contact> contacts = unpack(packed);
 
   // 2. The reference at each contact, spread over the ranks; each writes its contacts' records.
   meshes::SurfaceReadOptions read;
@@ -457,206 +470,14 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
   std::map<std::uint64_t, json> verified;
   for (const auto& c : contacts) verified[c.model_id] = json::parse(read_file((records / (c.label() + ".json")).string()));
   std::map<std::uint64_t, json> run_models;
-  for (const auto& m : realtime_summary.at("models")) run_models[m.at("model_id").get<std::uint64_t>()] = m;
+  for (const auto& m : realtime.summary.at("models")) run_models[m.at("model_id").get<std::uint64_t>()] = m;
 
-  // Per contact, the local vertices both models give a displacement at: G_v (MFS) and D_v
-  // (reference), each per unit tool displacement.
-  struct VertexMaps {
-    std::vector<Eigen::Matrix3d> mfs, reference;
-  };
-  std::map<std::uint64_t, VertexMaps> vertex_maps;
-  for (const auto& [id, v] : verified) {
-    VertexMaps& maps = vertex_maps[id];
-    for (const auto& vertex : v.at("vertices")) {
-      if (vertex.at("reference").is_null()) continue;
-      maps.mfs.push_back(json_matrix(vertex.at("mfs")));
-      maps.reference.push_back(json_matrix(vertex.at("reference")));
-    }
-  }
+  TickComparison ticks = compare_ticks(realtime.frames, verified, run_models, out);
 
-  double max_reference_N = 0;
-  for (const auto& f : frames) {
-    auto it = verified.find(f.model_id);
-    if (it == verified.end()) continue;
-    const json& m = run_models.at(f.model_id);
-    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
-    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * (f.tip_m - c), d);
-    max_reference_N = std::max(max_reference_N, reference.norm());
-  }
-  const double floor_N = relative_error_floor * max_reference_N;
-
-  AtomicFileWriter frames_csv((out / "frames.csv").string());
-  frames_csv.append("time_s,model_id,tip_x_m,tip_y_m,tip_z_m,depth_m,mfs_x_N,mfs_y_N,mfs_z_N,reference_x_N,reference_y_N,"
-                    "reference_z_N,error_N,relative_error,angle_deg,displacement_error\n");
-  ErrorSums total;
-  std::map<std::uint64_t, ErrorSums> per_contact;
-  std::map<std::uint64_t, std::pair<double, Eigen::Vector3d>> deepest;  // depth, U
-  struct Worst {
-    double time_s, error_N, relative;
-    std::uint64_t model_id;
-  };
-  std::vector<Worst> worst;
-  std::map<std::uint64_t, std::pair<double, double>> displacement_sums;  // Σ|u_mfs − u_ref|², Σ|u_ref|²
-  std::pair<double, double> total_displacement{0.0, 0.0};
-  json series = json::array();  // decimated for the report's plot
-  const std::size_t stride = std::max<std::size_t>(1, frames.size() / 4000);
-  std::size_t index = 0;
-  char line[640];
-  for (const auto& f : frames) {
-    auto it = verified.find(f.model_id);
-    if (it == verified.end()) continue;
-    const json& m = run_models.at(f.model_id);
-    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
-    const Eigen::Vector3d u = f.tip_m - c;
-    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * u, d);
-    const double error = (f.mfs_force_N - reference).norm();
-    const double relative = reference.norm() >= floor_N && floor_N > 0 ? error / reference.norm() : std::nan("");
-    const double angle = angle_between(f.mfs_force_N, reference);
-    // The surface displacement of the local vertices at this tick (both linear in U).
-    const VertexMaps& maps = vertex_maps.at(f.model_id);
-    double displacement_difference_sq = 0, displacement_reference_sq = 0;
-    for (std::size_t k = 0; k < maps.mfs.size(); ++k) {
-      const Eigen::Vector3d ur = maps.reference[k] * u;
-      displacement_difference_sq += (maps.mfs[k] * u - ur).squaredNorm();
-      displacement_reference_sq += ur.squaredNorm();
-    }
-    displacement_sums[f.model_id].first += displacement_difference_sq;
-    displacement_sums[f.model_id].second += displacement_reference_sq;
-    total_displacement.first += displacement_difference_sq;
-    total_displacement.second += displacement_reference_sq;
-    const double displacement_error =
-        displacement_reference_sq > 0 ? std::sqrt(displacement_difference_sq / displacement_reference_sq) : std::nan("");
-    for (ErrorSums* sums : {&total, &per_contact[f.model_id]}) {
-      sums->difference_sq += error * error;
-      sums->reference_sq += reference.squaredNorm();
-      sums->max_abs_N = std::max(sums->max_abs_N, error);
-      ++sums->frames;
-      if (std::isfinite(relative)) {
-        sums->max_rel = std::max(sums->max_rel, relative);
-        sums->max_angle_rad = std::max(sums->max_angle_rad, angle);
-        ++sums->relative_frames;
-      }
-    }
-    const double depth = u.dot(d);
-    auto& deep = deepest[f.model_id];
-    if (depth > deep.first) deep = {depth, u};
-    worst.push_back({f.time_s, error, relative, f.model_id});
-    const int n = std::snprintf(line, sizeof line, "%.6f,%llu,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.6g,%.6g,%.6g,%.6g\n",
-                                f.time_s, static_cast<unsigned long long>(f.model_id), f.tip_m.x(), f.tip_m.y(), f.tip_m.z(), depth,
-                                f.mfs_force_N.x(), f.mfs_force_N.y(), f.mfs_force_N.z(), reference.x(), reference.y(), reference.z(),
-                                error, relative, angle * 180 / pi, displacement_error);
-    frames_csv.append(std::string(line, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof line) - 1))));
-    if (index++ % stride == 0)
-      series.push_back({f.time_s, f.model_id, f.mfs_force_N.norm(), reference.norm(), std::isfinite(relative) ? json(relative) : json(nullptr),
-                        angle * 180 / pi, json_number(displacement_error)});
-  }
-  frames_csv.commit();
-  std::sort(worst.begin(), worst.end(), [](const Worst& a, const Worst& b) { return a.error_N > b.error_N; });
-  json worst_frames = json::array();
-  for (std::size_t i = 0; i < worst.size() && i < 10; ++i)
-    worst_frames.push_back({{"time_s", worst[i].time_s}, {"model_id", worst[i].model_id}, {"error_N", worst[i].error_N},
-                            {"relative_error", json_number(worst[i].relative)}});
-
-  // Per contact: stiffness, force errors, displacements at the deepest press, ParaView files.
-  const fs::path paraview = out / "paraview";
-  fs::create_directories(paraview);
-  json contact_rows = json::array();
-  double contact_error_sq = 0, rebuild_mismatch = 0;
-  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
-  AtomicFileWriter contacts_csv((out / "contacts.csv").string());
-  contacts_csv.append("model_id,reason,time_s,frames,x_m,y_m,z_m,k_mfs_N_per_m,k_reference_N_per_m,stiffness_error,"
-                      "force_error_l2,force_error_max_N,reference_uncertainty,displacement_error_l2,exterior,dofs_finest\n");
-  for (const auto& c : contacts) {
-    const json& v = verified.at(c.model_id);
-    const json& m = run_models.at(c.model_id);
-    const Eigen::Vector3d d = c.direction;
-    const Eigen::Matrix3d k_mfs = json_matrix(m.at("tool_stiffness_N_per_m"));
-    const Eigen::Matrix3d k_ref = json_matrix(v.at("reference_stiffness_N_per_m"));
-    const Eigen::Matrix3d k_rebuilt = json_matrix(v.at("rebuilt_tool_stiffness_N_per_m"));
-    rebuild_mismatch = std::max(rebuild_mismatch, (k_rebuilt - k_mfs).norm() / k_mfs.norm());
-    const double kn_mfs = d.dot(k_mfs * d), kn_ref = d.dot(k_ref * d);
-    const ErrorSums& e = per_contact[c.model_id];
-    contact_error_sq += e.relative_l2() * e.relative_l2();
-
-    // Surface displacements at the deepest press: u_v = G_v U (MFS), D_v U (reference).
-    const Eigen::Vector3d u_deep = deepest[c.model_id].second;
-    std::vector<Eigen::Vector3d> u_mfs(organ.vertices().size(), Eigen::Vector3d::Zero()), u_ref = u_mfs, u_diff = u_mfs;
-    double diff_sq = 0, ref_sq = 0;
-    long long found = 0, compared = 0;
-    for (const auto& vertex : v.at("vertices")) {
-      const auto index_v = vertex.at("vertex").get<std::size_t>();
-      ++compared;
-      u_mfs[index_v] = json_matrix(vertex.at("mfs")) * u_deep;  // the tool's part: the reference has no body loads
-      if (vertex.at("reference").is_null()) continue;
-      ++found;
-      u_ref[index_v] = json_matrix(vertex.at("reference")) * u_deep;
-      u_diff[index_v] = u_mfs[index_v] - u_ref[index_v];
-      diff_sq += u_diff[index_v].squaredNorm();
-      ref_sq += u_ref[index_v].squaredNorm();
-    }
-    const double displacement_error = ref_sq > 0 ? std::sqrt(diff_sq / ref_sq) : std::nan("");
-    // The split: how much of the difference is one translation of the whole local region (the
-    // organ moving as a body, which a field confined to the ball cannot show).
-    Eigen::Vector3d mean_difference = Eigen::Vector3d::Zero();
-    for (const auto& vertex : v.at("vertices"))
-      if (!vertex.at("reference").is_null()) mean_difference += u_diff[vertex.at("vertex").get<std::size_t>()];
-    if (found > 0) mean_difference /= static_cast<double>(found);
-    const double translated_sq = diff_sq - static_cast<double>(found) * mean_difference.squaredNorm();
-    const double displacement_error_local = ref_sq > 0 ? std::sqrt(std::max(0.0, translated_sq) / ref_sq) : std::nan("");
-    const std::string vtp = c.label() + "_surface.vtp";
-    meshes::SurfaceWriteOptions write;
-    write.point_vectors = {{"displacement_mfs_m", u_mfs}, {"displacement_reference_m", u_ref}, {"difference_m", u_diff}};
-    meshes::write_surface_mesh((paraview / vtp).string(), organ.vertices(), organ.triangles(), write);
-    pvd += "    <DataSet timestep=\"" + format_number(m.at("adopted_s").get<double>()) + "\" file=\"" + vtp + "\"/>\n";
-
-    json row{{"model_id", c.model_id},
-             {"label", c.label()},
-             {"reason", m.at("reason")},
-             {"adopted_s", m.at("adopted_s")},
-             {"contact_point_m", m.at("contact_point_m")},
-             {"direction", m.at("direction")},
-             {"exterior_used", m.at("exterior_used")},
-             {"node_count", m.at("node_count")},
-             {"mfs_stiffness_N_per_m", m.at("tool_stiffness_N_per_m")},
-             {"reference_stiffness_N_per_m", v.at("reference_stiffness_N_per_m")},
-             {"axial_stiffness_mfs_N_per_m", kn_mfs},
-             {"axial_stiffness_reference_N_per_m", kn_ref},
-             {"stiffness_error", kn_mfs / kn_ref - 1},
-             {"frames", e.frames},
-             {"force_error_l2", e.relative_l2()},
-             {"force_error_max_N", e.max_abs_N},
-             {"force_error_max_relative", e.relative_frames > 0 ? json(e.max_rel) : json(nullptr)},
-             {"force_angle_max_deg", e.max_angle_rad * 180 / pi},
-             {"reference_convergence", v.at("convergence")},
-             {"reference_levels", v.at("levels")},
-             {"deepest_press_m", deepest[c.model_id].first},
-             {"displacement_error_l2", json_number(displacement_error)},
-             {"displacement_mean_difference_m", vector_json(mean_difference)},
-             {"displacement_error_l2_without_mean", json_number(displacement_error_local)},
-             {"displacement_error_l2_over_ticks",
-              json_number(displacement_sums[c.model_id].second > 0
-                              ? std::sqrt(displacement_sums[c.model_id].first / displacement_sums[c.model_id].second)
-                              : std::nan(""))},
-             {"displacement_vertices", compared},
-             {"displacement_vertices_found", found},
-             {"paraview_surface", "paraview/" + vtp},
-             {"paraview_reference", v.at("reference_vtu")},
-             {"solved_on_rank", v.at("rank")},
-             {"seconds", v.at("seconds")}};
-    contact_rows.push_back(row);
-    std::snprintf(line, sizeof line, "%llu,%s,%.6f,%lld,%.17g,%.17g,%.17g,%.9g,%.9g,%.6g,%.6g,%.6g,%.6g,%.6g,%s,%zu\n",
-                  static_cast<unsigned long long>(c.model_id), m.at("reason").get<std::string>().c_str(), m.at("adopted_s").get<double>(),
-                  e.frames, c.point_m.x(), c.point_m.y(), c.point_m.z(), kn_mfs, kn_ref, kn_mfs / kn_ref - 1, e.relative_l2(),
-                  e.max_abs_N, value_or_nan(v.at("convergence"), "relative_uncertainty"), displacement_error,
-                  m.at("exterior_used").get<std::string>().c_str(), v.at("levels").back().at("dofs").get<std::size_t>());
-    contacts_csv.append(line);
-  }
-  contacts_csv.commit();
-  pvd += "  </Collection>\n</VTKFile>\n";
-  write_file_atomically((paraview / "contacts.pvd").string(), pvd);
+  const ContactRows contact_outputs = write_contact_outputs(contacts, verified, run_models, ticks, organ, out);
 
   double max_uncertainty = 0;
-  for (const auto& row : contact_rows) max_uncertainty = std::max(max_uncertainty, value_or_nan(row.at("reference_convergence"), "relative_uncertainty"));
+  for (const auto& row : contact_outputs.rows) max_uncertainty = std::max(max_uncertainty, value_or_nan(row.at("reference_convergence"), "relative_uncertainty"));
   json document{
       {"study", study.name},
       {"kind", "palpation_replay"},
@@ -669,32 +490,32 @@ json run_palpation_replay(const PalpationReplayStudy& study, const ReplayRunOpti
       {"contact_condition", geometry::to_string(scene.settings.tool.condition)},
       {"realtime",
        {{"summary", "realtime/summary.json"},
-        {"duration_s", realtime_summary.at("duration_s")},
-        {"models", realtime_summary.at("models").size()},
-        {"exterior_used", realtime_summary.at("model_builds").at("exterior_used")},
-        {"frames_with_model", frames.size()},
-        {"seconds", realtime_seconds}}},
-      {"contacts", contact_rows},
+        {"duration_s", realtime.summary.at("duration_s")},
+        {"models", realtime.summary.at("models").size()},
+        {"exterior_used", realtime.summary.at("model_builds").at("exterior_used")},
+        {"frames_with_model", realtime.frames.size()},
+        {"seconds", realtime.seconds}}},
+      {"contacts", contact_outputs.rows},
       {"summary",
        {{"verified_contacts", contacts.size()},
-        {"verified_frames", total.frames},
-        {"force_error_l2", total.relative_l2()},
-        {"force_error_rms_over_contacts", contacts.empty() ? 0.0 : std::sqrt(contact_error_sq / contacts.size())},
-        {"force_error_max_N", total.max_abs_N},
-        {"force_error_max_relative", total.relative_frames > 0 ? json(total.max_rel) : json(nullptr)},
-        {"force_angle_max_deg", total.max_angle_rad * 180 / pi},
+        {"verified_frames", ticks.total.frames},
+        {"force_error_l2", ticks.total.relative_l2()},
+        {"force_error_rms_over_contacts", contacts.empty() ? 0.0 : std::sqrt(contact_outputs.error_sq / contacts.size())},
+        {"force_error_max_N", ticks.total.max_abs_N},
+        {"force_error_max_relative", ticks.total.relative_frames > 0 ? json(ticks.total.max_rel) : json(nullptr)},
+        {"force_angle_max_deg", ticks.total.max_angle_rad * 180 / pi},
         {"displacement_error_l2",
-         json_number(total_displacement.second > 0 ? std::sqrt(total_displacement.first / total_displacement.second) : std::nan(""))},
-        {"relative_error_floor_N", floor_N},
-        {"max_reference_force_N", max_reference_N},
+         json_number(ticks.total_displacement.second > 0 ? std::sqrt(ticks.total_displacement.first / ticks.total_displacement.second) : std::nan(""))},
+        {"relative_error_floor_N", ticks.floor_N},
+        {"max_reference_force_N", ticks.max_reference_N},
         {"reference_uncertainty_max", max_uncertainty},
-        {"rebuilt_stiffness_mismatch_max", rebuild_mismatch}}},
-      {"worst_frames", worst_frames},
+        {"rebuilt_stiffness_mismatch_max", contact_outputs.rebuild_mismatch}}},
+      {"worst_frames", ticks.worst_frames},
       {"series_columns", {"time_s", "model_id", "mfs_force_N", "reference_force_N", "relative_error", "angle_deg", "displacement_error"}},
-      {"series", series},
+      {"series", ticks.series},
       {"timing",
        {{"mpi_ranks", ranks},
-        {"realtime_s", realtime_seconds},
+        {"realtime_s", realtime.seconds},
         {"reference_s", fem_seconds},
         {"total_s", seconds_since(start)}}},
       {"outputs",
