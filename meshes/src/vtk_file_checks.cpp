@@ -271,27 +271,50 @@ class CompressedBlockCounts {
  private:
   void check(std::size_t from, std::size_t stop, bool base64, const std::string& what) const {
     while (from < stop && std::isspace(static_cast<unsigned char>(text_[from]))) ++from;
-    unsigned char word[9] = {};
+    // The first three header words: block count, block size, last block size (3 whole words
+    // are 12 or 24 bytes, a whole number of base64 quanta).
+    unsigned char bytes[24] = {};
+    std::size_t words = 0;
     if (base64) {
-      const std::size_t characters = word_ == 8 ? 12 : 8;
-      if (stop - from < characters) return;
-      const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
-          reinterpret_cast<const unsigned char*>(text_.data() + from), characters, word, sizeof word);
-      if (decoded < word_) return;
+      for (std::size_t want = 3; want >= 1 && words == 0; --want) {
+        const std::size_t characters = want * word_ / 3 * 4 + (want * word_ % 3 == 0 ? 0 : 4);
+        if (stop - from < characters) continue;
+        const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
+            reinterpret_cast<const unsigned char*>(text_.data() + from), characters, bytes, sizeof bytes);
+        words = std::min<std::size_t>(want, decoded / word_);
+      }
     } else {
-      if (stop - from < word_) return;
-      std::memcpy(word, text_.data() + from, word_);
+      words = std::min<std::size_t>(3, (stop - from) / word_);
+      std::memcpy(bytes, text_.data() + from, words * word_);
     }
-    unsigned long long count = 0;
-    for (std::size_t b = 0; b < word_; ++b) {
-      const std::size_t byte = big_endian_ ? b : word_ - 1 - b;
-      count = (count << 8) | word[byte];
-    }
+    if (words == 0) return;
+    const auto header_word = [&](std::size_t w) {
+      unsigned long long value = 0;
+      for (std::size_t b = 0; b < word_; ++b) {
+        const std::size_t byte = w * word_ + (big_endian_ ? b : word_ - 1 - b);
+        value = (value << 8) | bytes[byte];
+      }
+      return value;
+    };
+    const unsigned long long count = header_word(0);
     // Every block's compressed size is a header word; base64 stores 3 bytes in 4 characters.
     const long double available = static_cast<long double>(stop - from) * (base64 ? 0.75L : 1.0L);
     if (static_cast<long double>(count) * static_cast<long double>(word_) > available) {
       fail(path_, "corrupt file: " + what + " declares " + std::to_string(count) +
                       " compressed blocks, more block sizes than its data holds");
+    }
+    if (words < 3) return;
+    // VTK takes the data's size as count · block size, with the last block's size in place of a
+    // full one: no blocks and a last block underflow to an enormous size it then reads block 0
+    // of (a null dereference), and blocks of size 0 divide by zero.
+    const unsigned long long block_size = header_word(1), last_block_size = header_word(2);
+    if (count == 0 && last_block_size != 0) {
+      fail(path_, "corrupt file: " + what + " declares no compressed blocks but a last block of " +
+                      std::to_string(last_block_size) + " bytes");
+    }
+    if (count > 0 && (block_size == 0 || last_block_size > block_size)) {
+      fail(path_, "corrupt file: " + what + " declares compressed blocks of " + std::to_string(block_size) +
+                      " bytes with a last block of " + std::to_string(last_block_size) + " bytes");
     }
   }
 

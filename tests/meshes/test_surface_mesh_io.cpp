@@ -682,7 +682,35 @@ TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
     const std::string corrupt = directory.file(std::string("corrupt_") + layout.name, bytes);
     expect_invalid_argument([&] { read_surface_mesh(corrupt); },
                             {corrupt, "compressed DataArray of piece 1 declares 2147483647 compressed blocks"});
+
+    // Raw UInt64 header words [count, block size, last block size]: no blocks but a last block
+    // (VTK's size underflows and it reads a block that is not there: a null dereference), and
+    // blocks of 0 bytes (VTK divides by the block size).
+    if (!layout.base64) {
+      const std::string original = read_file(path);
+      const auto with_words = [&](unsigned long long count, unsigned long long block_size, const char* name) {
+        std::string changed = original;
+        for (int b = 0; b < 8; ++b) {
+          changed[first + b] = static_cast<char>(count >> (8 * b) & 0xff);
+          changed[first + 8 + b] = static_cast<char>(block_size >> (8 * b) & 0xff);
+        }
+        return directory.file(name, changed);
+      };
+      const std::string no_blocks = with_words(0, 32768, "no_blocks.vtp");
+      expect_invalid_argument([&] { read_surface_mesh(no_blocks); },
+                              {no_blocks, "declares no compressed blocks but a last block of"});
+      const std::string empty_blocks = with_words(1, 0, "empty_blocks.vtp");
+      expect_invalid_argument([&] { read_surface_mesh(empty_blocks); },
+                              {empty_blocks, "declares compressed blocks of 0 bytes"});
+    }
   }
+  // The input CI's fuzz run found, kept in the harness's corpus: a mutation of a compressed
+  // sphere left two UInt32 headers with no blocks and a last block (the strips' offsets, 301,568
+  // bytes, reported first; the polygons' connectivity, 2,304 bytes, which VTK crashed on).
+  const std::string found = std::string(TOUCHSTONE_SOURCE_DIR) +
+                            "/tests/fuzz/corpus/fuzz_surface_vtp/corrupt_zero_blocks_with_last_block.vtp";
+  expect_invalid_argument([&] { read_surface_mesh(found); },
+                          {"corrupt_zero_blocks_with_last_block.vtp", "no compressed blocks but a last block of 301568 bytes"});
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
