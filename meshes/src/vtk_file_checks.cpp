@@ -276,13 +276,11 @@ class CompressedBlockCounts {
     unsigned char bytes[24] = {};
     std::size_t words = 0;
     if (base64) {
-      for (std::size_t want = 3; want >= 1 && words == 0; --want) {
-        const std::size_t characters = want * word_ / 3 * 4 + (want * word_ % 3 == 0 ? 0 : 4);
-        if (stop - from < characters) continue;
-        const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
-            reinterpret_cast<const unsigned char*>(text_.data() + from), characters, bytes, sizeof bytes);
-        words = std::min<std::size_t>(want, decoded / word_);
-      }
+      // 3 words are 3 · word_ bytes, 4 · word_ characters; fewer when the data holds fewer.
+      const std::size_t characters = std::min<std::size_t>((stop - from) / 4 * 4, 4 * word_);
+      const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
+          reinterpret_cast<const unsigned char*>(text_.data() + from), characters, bytes, sizeof bytes);
+      words = std::min<std::size_t>(3, decoded / word_);
     } else {
       words = std::min<std::size_t>(3, (stop - from) / word_);
       std::memcpy(bytes, text_.data() + from, words * word_);

@@ -37,6 +37,17 @@ json matrix_json(const Eigen::Matrix3d& m, int n) {
   return rows;
 }
 
+Eigen::Vector3d vector_from_json(const json& j) {
+  return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()};
+}
+
+Eigen::Matrix3d matrix_from_json(const json& j) {
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = j.at(r).at(c).get<double>();
+  return m;
+}
+
 double value_or_nan(const json& j) { return j.is_number() ? j.get<double>() : nan_value; }
 
 double value_or_nan(const json& object, const char* key) {

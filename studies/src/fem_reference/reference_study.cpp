@@ -31,7 +31,6 @@ namespace {
 /// (first order in the edge mesh size). Richardson reports how far the observed order is from it.
 constexpr double punch_convergence_order = 1.0;
 
-Eigen::Vector3d json_vector(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()}; }
 
 /// One problem of the study: the study's settings with one value of each sweep.
 struct Problem {
@@ -94,8 +93,8 @@ std::pair<double, double> probe_errors(const json& probes, const json& reference
   double diff2 = 0, ref2 = 0, max_abs = 0;
   for (std::size_t i = 0; i < probes.size() && i < reference.size(); ++i) {
     if (!probes[i].at("found").get<bool>() || !reference[i].at("found").get<bool>()) continue;
-    const Eigen::Vector3d u = json_vector(probes[i].at("displacement_m"));
-    const Eigen::Vector3d r = json_vector(reference[i].at("displacement_m"));
+    const Eigen::Vector3d u = vector_from_json(probes[i].at("displacement_m"));
+    const Eigen::Vector3d r = vector_from_json(reference[i].at("displacement_m"));
     diff2 += (u - r).squaredNorm();
     ref2 += r.squaredNorm();
     max_abs = std::max(max_abs, (u - r).norm());
@@ -143,7 +142,7 @@ class Runner {
     const double remaining = elapsed / done * (total - done);
     std::printf("[%zu/%zu] %-44s %8zu dofs  F = %.6e N  %s  (elapsed %.0f s, ~%.0f s left)\n", done, total,
                 level.at("id").get<std::string>().c_str(), level.at("mesh").at("dofs").get<std::size_t>(),
-                axial_force(json_vector(level.at("qoi").at("force_N")), study_.punch.direction),
+                axial_force(vector_from_json(level.at("qoi").at("force_N")), study_.punch.direction),
                 level.value("cached", false) ? "cached" : "solved", elapsed, remaining);
     std::fflush(stdout);
   }
@@ -399,7 +398,7 @@ class Runner {
       reference["id"] = physical_id + "-reference";
       reference["params"]["edge_size_m"] = "families";
       reference["qoi"]["force_N"] = vector_json(mean / last->at("qoi").at("axial_force_N").get<double>() *
-                                                json_vector(last->at("qoi").at("force_N")));
+                                                vector_from_json(last->at("qoi").at("force_N")));
       reference["qoi"]["axial_force_N"] = mean;
       reference["qoi"]["stiffness_N_per_m"] = mean / study_.punch.depth_m;
       reference["qoi"]["energy_J"] = 0.5 * mean * study_.punch.depth_m;

@@ -100,13 +100,6 @@ json solve_level(const meshes::MeshParameters& geometry, const PalpationReplaySt
 
 }  // namespace
 
-Eigen::Matrix3d json_matrix(const json& j) {
-  Eigen::Matrix3d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = j.at(r).at(c).get<double>();
-  return m;
-}
-
 std::vector<double> pack(const std::vector<Contact>& contacts) {
   std::vector<double> out;
   for (const auto& c : contacts) {
@@ -183,7 +176,7 @@ json verify_contact(const Contact& contact, const PalpationReplayStudy& study, c
     if (!options.quiet)
       std::printf("[rank %u] %s level %d: %zu dofs, k = %.6g N/m (%s)\n", fem::MpiSession::rank(), contact.label().c_str(),
                   level, levels.back().at("dofs").get<std::size_t>(),
-                  contact.direction.dot(json_matrix(levels.back().at("stiffness_N_per_m")) * contact.direction),
+                  contact.direction.dot(matrix_from_json(levels.back().at("stiffness_N_per_m")) * contact.direction),
                   levels.back().value("cached", false) ? "cached" : "solved");
     std::fflush(stdout);
   }
@@ -192,15 +185,15 @@ json verify_contact(const Contact& contact, const PalpationReplayStudy& study, c
   // linear combination of the two finest levels.
   const Eigen::Vector3d d = contact.direction;
   std::vector<double> axial;
-  for (const auto& l : levels) axial.push_back(d.dot(json_matrix(l.at("stiffness_N_per_m")) * d));
-  const Eigen::Matrix3d finest = json_matrix(levels.back().at("stiffness_N_per_m"));
+  for (const auto& l : levels) axial.push_back(d.dot(matrix_from_json(l.at("stiffness_N_per_m")) * d));
+  const Eigen::Matrix3d finest = matrix_from_json(levels.back().at("stiffness_N_per_m"));
   Eigen::Matrix3d k_ref = finest;
   json convergence{{"levels_axial_N_per_m", axial}};
   double uncertainty = std::numeric_limits<double>::quiet_NaN();
   if (levels.size() >= 3) {
     const fem::RichardsonEstimate r = fem::richardson_extrapolate(axial, 2.0, punch_convergence_order);
     const double order = std::isfinite(r.observed_order) && r.observed_order > 0 ? r.observed_order : punch_convergence_order;
-    const Eigen::Matrix3d previous = json_matrix(levels[levels.size() - 2].at("stiffness_N_per_m"));
+    const Eigen::Matrix3d previous = matrix_from_json(levels[levels.size() - 2].at("stiffness_N_per_m"));
     k_ref = finest + (finest - previous) / (std::pow(2.0, order) - 1);
     // The estimate: the extrapolation's own uncertainty, and never below the change it made.
     uncertainty = std::max(r.extrapolated_relative_uncertainty, std::abs(r.extrapolated - axial.back()) / std::abs(r.extrapolated));

@@ -30,9 +30,6 @@ struct Contact {
 std::vector<double> pack(const std::vector<Contact>& contacts);
 std::vector<Contact> unpack(const std::vector<double>& values);
 
-/// A 3 × 3 matrix from a JSON array of three rows.
-Eigen::Matrix3d json_matrix(const nlohmann::json& j);
-
 /// The reference's organ problem of the study and the scene, its contact not yet set.
 meshes::MeshParameters reference_geometry(const PalpationReplayStudy& study,
                                           const realtime::runtime::SceneSettings& scene,

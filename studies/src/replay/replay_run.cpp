@@ -35,7 +35,6 @@ namespace fs = std::filesystem;
 namespace rt = realtime::runtime;
 using nlohmann::json;
 using replay::Contact;
-using replay::json_matrix;
 using replay::pack;
 using replay::reference_geometry;
 using replay::unpack;
@@ -47,7 +46,6 @@ constexpr double pi = 3.14159265358979323846;
 /// left out of the relative errors (a press just beginning: both forces near zero).
 constexpr double relative_error_floor = 0.05;
 
-Eigen::Vector3d json_vector(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()}; }
 
 /// One tick of the real-time run with a model in use.
 struct Frame {
@@ -148,7 +146,7 @@ RealtimeRun run_realtime(const PalpationReplayStudy& study, const SimScene& scen
   for (const auto& m : run.summary.at("models")) {
     const auto id = m.at("model_id").get<std::uint64_t>();
     if (std::find(chosen.begin(), chosen.end(), id) != chosen.end())
-      run.contacts.push_back({id, json_vector(m.at("contact_point_m")), json_vector(m.at("direction"))});
+      run.contacts.push_back({id, vector_from_json(m.at("contact_point_m")), vector_from_json(m.at("direction"))});
   }
   if (run.contacts.size() != chosen.size())
     throw std::runtime_error("the run's model records miss some of its contacts (more models than it keeps records of)");
@@ -182,8 +180,8 @@ TickComparison compare_ticks(const std::vector<Frame>& frames, const std::map<st
     VertexMaps& maps = vertex_maps[id];
     for (const auto& vertex : v.at("vertices")) {
       if (vertex.at("reference").is_null()) continue;
-      maps.mfs.push_back(json_matrix(vertex.at("mfs")));
-      maps.reference.push_back(json_matrix(vertex.at("reference")));
+      maps.mfs.push_back(matrix_from_json(vertex.at("mfs")));
+      maps.reference.push_back(matrix_from_json(vertex.at("reference")));
     }
   }
 
@@ -191,8 +189,8 @@ TickComparison compare_ticks(const std::vector<Frame>& frames, const std::map<st
     auto it = verified.find(f.model_id);
     if (it == verified.end()) continue;
     const json& m = run_models.at(f.model_id);
-    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
-    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * (f.tip_m - c), d);
+    const Eigen::Vector3d c = vector_from_json(m.at("contact_point_m")), d = vector_from_json(m.at("direction"));
+    const Eigen::Vector3d reference = rt::push_only(matrix_from_json(it->second.at("reference_stiffness_N_per_m")) * (f.tip_m - c), d);
     ticks.max_reference_N = std::max(ticks.max_reference_N, reference.norm());
   }
   ticks.floor_N = relative_error_floor * ticks.max_reference_N;
@@ -212,9 +210,9 @@ TickComparison compare_ticks(const std::vector<Frame>& frames, const std::map<st
     auto it = verified.find(f.model_id);
     if (it == verified.end()) continue;
     const json& m = run_models.at(f.model_id);
-    const Eigen::Vector3d c = json_vector(m.at("contact_point_m")), d = json_vector(m.at("direction"));
+    const Eigen::Vector3d c = vector_from_json(m.at("contact_point_m")), d = vector_from_json(m.at("direction"));
     const Eigen::Vector3d u = f.tip_m - c;
-    const Eigen::Vector3d reference = rt::push_only(json_matrix(it->second.at("reference_stiffness_N_per_m")) * u, d);
+    const Eigen::Vector3d reference = rt::push_only(matrix_from_json(it->second.at("reference_stiffness_N_per_m")) * u, d);
     const double error = (f.mfs_force_N - reference).norm();
     const double relative = reference.norm() >= ticks.floor_N && ticks.floor_N > 0 ? error / reference.norm() : std::nan("");
     const double angle = angle_between(f.mfs_force_N, reference);
@@ -287,9 +285,9 @@ ContactRows write_contact_outputs(const std::vector<Contact>& contacts, const st
     const json& v = verified.at(c.model_id);
     const json& m = run_models.at(c.model_id);
     const Eigen::Vector3d d = c.direction;
-    const Eigen::Matrix3d k_mfs = json_matrix(m.at("tool_stiffness_N_per_m"));
-    const Eigen::Matrix3d k_ref = json_matrix(v.at("reference_stiffness_N_per_m"));
-    const Eigen::Matrix3d k_rebuilt = json_matrix(v.at("rebuilt_tool_stiffness_N_per_m"));
+    const Eigen::Matrix3d k_mfs = matrix_from_json(m.at("tool_stiffness_N_per_m"));
+    const Eigen::Matrix3d k_ref = matrix_from_json(v.at("reference_stiffness_N_per_m"));
+    const Eigen::Matrix3d k_rebuilt = matrix_from_json(v.at("rebuilt_tool_stiffness_N_per_m"));
     result.rebuild_mismatch = std::max(result.rebuild_mismatch, (k_rebuilt - k_mfs).norm() / k_mfs.norm());
     const double kn_mfs = d.dot(k_mfs * d), kn_ref = d.dot(k_ref * d);
     const ErrorSums& e = ticks.per_contact[c.model_id];
@@ -303,10 +301,10 @@ ContactRows write_contact_outputs(const std::vector<Contact>& contacts, const st
     for (const auto& vertex : v.at("vertices")) {
       const auto index_v = vertex.at("vertex").get<std::size_t>();
       ++compared;
-      u_mfs[index_v] = json_matrix(vertex.at("mfs")) * u_deep;  // the tool's part: the reference has no body loads
+      u_mfs[index_v] = matrix_from_json(vertex.at("mfs")) * u_deep;  // the tool's part: the reference has no body loads
       if (vertex.at("reference").is_null()) continue;
       ++found;
-      u_ref[index_v] = json_matrix(vertex.at("reference")) * u_deep;
+      u_ref[index_v] = matrix_from_json(vertex.at("reference")) * u_deep;
       u_diff[index_v] = u_mfs[index_v] - u_ref[index_v];
       diff_sq += u_diff[index_v].squaredNorm();
       ref_sq += u_ref[index_v].squaredNorm();

@@ -19,6 +19,10 @@ namespace touchstone::studies {
 nlohmann::json json_number(double value);
 nlohmann::json vector_json(const Eigen::Vector3d& v);  ///< [x, y, z], non-finite → null
 nlohmann::json matrix_json(const Eigen::Matrix3d& m, int n = 3);  ///< rows of the top-left n×n block, non-finite → null
+/// The inverses of vector_json and matrix_json (3 × 3) for what this program wrote: throws
+/// nlohmann::json's exception on a missing or non-numeric entry (a null written for NaN included).
+Eigen::Vector3d vector_from_json(const nlohmann::json& j);
+Eigen::Matrix3d matrix_from_json(const nlohmann::json& j);
 /// A JSON number, or NaN when it is null, absent or not a number.
 double value_or_nan(const nlohmann::json& j);
 double value_or_nan(const nlohmann::json& object, const char* key);
