@@ -1,5 +1,6 @@
 #include "touchstone/studies/organ_atlas.hpp"
 
+#include "fem_reference/setting_fields.hpp"
 #include "touchstone/studies/fem_reference/reference_study.hpp"
 
 #include "touchstone/fem/richardson.hpp"
@@ -393,8 +394,7 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
 
   ConfigTable solver = config.table("solver");
   study.solver.degree = static_cast<unsigned int>(solver.integer("degree", study.solver.degree));
-  study.solver.solver = fem::linear_solver_from_string(
-      solver.choice("method", {"cg_amg_trilinos", "cg_gamg_petsc", "direct_mumps"}, "cg_amg_trilinos"));
+  study.solver.solver = value_of(linear_solvers, solver.choice("method", names(linear_solvers), "cg_amg_trilinos"));
   study.solver.relative_tolerance = solver.number("relative_tolerance", study.solver.relative_tolerance);
   study.solver.max_iterations = static_cast<unsigned int>(solver.integer("max_iterations", study.solver.max_iterations));
   finish_and_validate(config, study);

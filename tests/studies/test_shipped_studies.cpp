@@ -124,9 +124,13 @@ TEST(ShippedStudies, HalfSpaceIsBenchmarkB1AgainstItsOwnReference) {
 TEST(ShippedStudies, StabilityAndPoissonCoverTheirRangesInOneFile) {
   const std::string dir = std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/";
   const ComparisonStudy poisson = read_comparison_study(dir + "poisson.toml");
-  std::set<double> nus;
-  for (const auto& p : poisson.problems) nus.insert(p.problem.material.poisson_ratio);
+  std::set<double> nus, bonded_nus;
+  for (const auto& p : poisson.problems) {
+    nus.insert(p.problem.material.poisson_ratio);
+    if (p.problem.contact == touchstone::geometry::ContactCondition::bonded) bonded_nus.insert(p.problem.material.poisson_ratio);
+  }
   EXPECT_EQ(nus, (std::set<double>{0.30, 0.45, 0.49}));
+  EXPECT_EQ(bonded_nus, nus);  // the bonded tool at every ratio too
 
   const ComparisonStudy stability = read_comparison_study(dir + "stability.toml");
   double nu_max = 0, e_min = 1e300, e_max = 0, depth_over_l = 0;

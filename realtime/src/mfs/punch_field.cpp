@@ -104,17 +104,49 @@ Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, doub
   return t * tangential_displacement_off_axis(plus, a, nu) + (1 - t) * tangential_displacement_off_axis(minus, a, nu);
 }
 
+/// The radial shear mode per metre of radial displacement at the rim, in the punch frame: the
+/// half-space under the self-equilibrated surface shear τ_r ∝ r / √(a² − r²) on the disk (zero
+/// normal traction everywhere). Built from one harmonic potential φ₁ and φ₂ = ∂φ₁/∂z / (2(1 − ν)):
+/// u = ∇φ₁ + z ∇φ₂ − (3 − 4ν) φ₂ e_z (Papkovich–Neuber), whose surface normal stress vanishes by
+/// that choice of φ₂ and whose shear stress is G/(1 − ν) ∂²φ₁/∂r∂z. φ₁ is Hertz's potential in
+/// oblate spheroidal coordinates (ξ, η) = (Re q, −Im q) / a:
+///   φ₁ = −(a²/3) [arccot ξ + P₂(η) Q̃₂(ξ)],  f = ∂φ₁/∂z = a η (1 − ξ arccot ξ),
+/// so f = √(a² − r²) on the disk and 0 beyond it. Under the disk u_r = (π/4) r: the field
+/// carries the uniform radial strain of the patch that the frictionless field lets slip and a
+/// bonded punch holds.
+Eigen::Vector3d radial_displacement(const Eigen::Vector3d& p, double a, double nu) {
+  const double r = std::hypot(p.x(), p.y()), z = p.z();
+  const Helpers h(r, z, a);
+  // ξ < 0 where the branch continues through the disk into z < 0; arccot and √(1 − η²) are
+  // written so that they continue with it.
+  const double xi = h.q.real() / a, eta = -h.q.imag() / a;
+  const double acot = std::atan2(1.0, xi);
+  const double root = std::sqrt(1 + xi * xi), sin_eta = r / (a * root);
+  const double phi1_r = a * sin_eta * ((xi * xi + 1) * acot - xi) / (2 * root);
+  const double f = a * eta * (1 - xi * acot);
+  // z ∂f/∂r and z ∂f/∂z with z = a ξ η: bounded at the rim, where ∂f itself is singular.
+  const double rho2 = xi * xi + eta * eta;
+  const double z_f_r = rho2 > 0 ? -a * xi * eta * eta * sin_eta / (rho2 * root) : 0.0;
+  const double z_f_z = rho2 > 0 ? a * xi * eta * (xi - rho2 * acot) / rho2 : 0.0;
+  const double k = 1 / (2 * (1 - nu));
+  const double ur = phi1_r + k * z_f_r, uz = f + k * z_f_z - (3 - 4 * nu) * k * f;
+  const double scale = 4 / (pi * a);  // u_r = 1 at the rim
+  const double c = r > 0 ? p.x() / r : 1.0, sn = r > 0 ? p.y() / r : 0.0;
+  return scale * Eigen::Vector3d(ur * c, ur * sn, uz);
+}
+
 /// Where a point may be evaluated: never above the rim plane outside the rim (the branch cut).
 Eigen::Vector3d admissible(Eigen::Vector3d p, double a) {
   if (std::hypot(p.x(), p.y()) >= a) p.z() = std::max(p.z(), 1e-13 * a);
   return p;
 }
 
-/// The tangential mode along local x with its stress from a second-order finite-difference
+/// A mode given by its displacement alone, with its stress from a second-order finite-difference
 /// gradient (step 1e-3 of the distance to the rim, one-sided near the free surface).
-PunchFieldSample tangential_local(const Eigen::Vector3d& p, double a, const geometry::Material& material) {
-  const double nu = material.poisson_ratio;
-  const auto u = [&](const Eigen::Vector3d& y) { return tangential_displacement(admissible(y, a), a, nu); };
+template <class Displacement>
+PunchFieldSample with_finite_difference_stress(const Eigen::Vector3d& p, double a, const geometry::Material& material,
+                                               Displacement displacement) {
+  const auto u = [&](const Eigen::Vector3d& y) { return displacement(admissible(y, a)); };
   const double r = std::hypot(p.x(), p.y());
   const double rim_distance = std::hypot(r - a, p.z());
   const double step = 1e-3 * std::clamp(rim_distance, 1e-9 * a, a);
@@ -159,8 +191,18 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
   if (mode == PunchMode::tangential_2) turn << 0, -1, 0, 1, 0, 0, 0, 0, 1;
   local = turn.transpose() * local;
-  PunchFieldSample sample = mode == PunchMode::normal ? sneddon_local(admissible(local, radius_m), radius_m, material)
-                                                      : tangential_local(local, radius_m, material);
+  const double a = radius_m, nu = material.poisson_ratio;
+  PunchFieldSample sample;
+  switch (mode) {
+    case PunchMode::normal: sample = sneddon_local(admissible(local, a), a, material); break;
+    case PunchMode::tangential_1:
+    case PunchMode::tangential_2:
+      sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return tangential_displacement(y, a, nu); });
+      break;
+    case PunchMode::radial:
+      sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return radial_displacement(y, a, nu); });
+      break;
+  }
   const Eigen::Matrix3d to_global = R * turn;
   sample.displacement = to_global * sample.displacement;
   sample.stress_Pa_per_m = to_global * sample.stress_Pa_per_m * to_global.transpose();
@@ -169,7 +211,13 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
 
 double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept {
   const double G = material.shear_modulus_Pa(), nu = material.poisson_ratio;
-  return mode == PunchMode::normal ? 4 * G * radius_m / (1 - nu) : 8 * G * radius_m / (2 - nu);
+  switch (mode) {
+    case PunchMode::normal: return 4 * G * radius_m / (1 - nu);
+    case PunchMode::tangential_1:
+    case PunchMode::tangential_2: return 8 * G * radius_m / (2 - nu);
+    case PunchMode::radial: return 16 * G * radius_m / (3 * (1 - nu));
+  }
+  return 0;
 }
 
 }  // namespace touchstone::realtime::mfs

@@ -30,9 +30,6 @@ const std::vector<Named<meshes::Benchmark>> benchmarks{{"B1", meshes::Benchmark:
 const std::vector<Named<fem::Formulation>> formulations{{"displacement", fem::Formulation::displacement},
                                                         {"mixed_p0disc", fem::Formulation::mixed_p0disc},
                                                         {"mixed", fem::Formulation::mixed_p0disc}};
-const std::vector<Named<fem::LinearSolver>> linear_solvers{{"cg_amg_trilinos", fem::LinearSolver::cg_amg_trilinos},
-                                                           {"cg_gamg_petsc", fem::LinearSolver::cg_gamg_petsc},
-                                                           {"direct_mumps", fem::LinearSolver::direct_mumps}};
 
 /// A non-negative integer setting held as unsigned int.
 template <class Get>

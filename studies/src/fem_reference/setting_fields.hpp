@@ -9,6 +9,7 @@
 // their units ("2 mm") and written back in SI, so a resolved config reads back to the same values.
 // It lives with the config reader in the folder the FEM cache key hashes: it reads FEM studies too.
 
+#include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/geometry/contact_condition.hpp"
 #include "touchstone/meshes/organ_geometry.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
@@ -74,6 +75,10 @@ inline const std::vector<Named<meshes::OrganShape>> organ_shapes{{"stomach", mes
                                                                  {"hemisphere", meshes::OrganShape::hemisphere}};
 inline const std::vector<Named<geometry::ContactCondition>> contact_conditions{
     {"frictionless", geometry::ContactCondition::frictionless}, {"bonded", geometry::ContactCondition::bonded}};
+/// The FEM's linear solvers, spelled as fem::to_string spells them.
+inline const std::vector<Named<fem::LinearSolver>> linear_solvers{{"cg_amg_trilinos", fem::LinearSolver::cg_amg_trilinos},
+                                                                  {"cg_gamg_petsc", fem::LinearSolver::cg_gamg_petsc},
+                                                                  {"direct_mumps", fem::LinearSolver::direct_mumps}};
 
 /// The naming part of a field; the field makers below add how it is read and written.
 struct FieldNames {

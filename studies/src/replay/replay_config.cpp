@@ -19,9 +19,6 @@ using S = PalpationReplayStudy;
 
 const std::vector<Named<ContactSelection>> selections{
     {"all", ContactSelection::all}, {"every", ContactSelection::every}, {"frames", ContactSelection::frames}};
-const std::vector<Named<fem::LinearSolver>> linear_solvers{{"cg_amg_trilinos", fem::LinearSolver::cg_amg_trilinos},
-                                                           {"cg_gamg_petsc", fem::LinearSolver::cg_gamg_petsc},
-                                                           {"direct_mumps", fem::LinearSolver::direct_mumps}};
 
 std::vector<SettingField<S>> make_fields() {
   const auto length = [](FieldNames n, auto get) { return field::quantity<S>(n, Dimension::length, get); };

@@ -1,6 +1,8 @@
 // The punch fields against the closed-form oracle tests/oracles/sneddon_field.py (values below
 // printed by it for a = G = 1, ν = 0.45, unit depth / unit tangential displacement), their
-// boundary conditions, equilibrium and resultants, and the frame transformation.
+// boundary conditions, equilibrium and resultants, and the frame transformation. The radial mode
+// has no oracle of its own: the conditions that make the half-space solution unique are checked
+// instead (its surface tractions, equilibrium, decay).
 #include "support/box_quadrature.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
@@ -10,6 +12,7 @@
 
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <vector>
 
 namespace touchstone::realtime::mfs {
@@ -80,7 +83,7 @@ TEST(PunchField, TangentialModeMatchesTheOracle) {
 
 TEST(PunchField, NearTheAxisTheSeriesContinueTheClosedForms) {
   const geometry::Material material = unit_material();
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1}) {
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial}) {
     const PunchFieldSample on = punch_field(mode, PunchFrame{}, 1.0, material, {2e-4, 1e-4, 0.4});
     const PunchFieldSample off = punch_field(mode, PunchFrame{}, 1.0, material, {2e-3, 1e-3, 0.4});
     EXPECT_LT((on.displacement - off.displacement).norm(), 1e-3 * off.displacement.norm());
@@ -115,6 +118,50 @@ TEST(PunchField, ResultantsAreTheHalfSpaceStiffnesses) {
   EXPECT_LT(std::abs(tangential.y()), 1e-6);
 }
 
+/// The radial mode is the half-space under its surface shear alone: on the disk σ·e_z is the
+/// radial τ_r = 4G/(πa(1 − ν)) r/√(a² − r²) (σ_zz = 0), u_r = r/a and u_z is the closed form; its
+/// load has no resultant and its energy ∫ u·t dA is 16 G a / (3(1 − ν)). With equilibrium, the
+/// traction-free surface beyond the disk and the decay (tests below) these fix the field.
+TEST(PunchField, RadialModeCarriesItsShearAndTheUniformRadialStrainOnTheDisk) {
+  const geometry::Material material = unit_material();
+  const double nu = material.poisson_ratio, G = material.shear_modulus_Pa();
+  for (const double r : {0.05, 0.3, 0.7, 0.95})
+    for (const double phi : {0.3, 2.0}) {
+      const Eigen::Vector3d radial(std::cos(phi), std::sin(phi), 0);
+      const PunchFieldSample f = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r * radial.x(), r * radial.y(), 1e-9});
+      const double shear = 4 * G / (pi * (1 - nu)) * r / std::sqrt(1 - r * r);
+      const Eigen::Vector3d traction_on_tissue = -f.stress_Pa_per_m.col(2);
+      EXPECT_LT((traction_on_tissue - shear * radial).norm(), 1e-5 * shear + 1e-7) << "r = " << r;
+      EXPECT_NEAR(f.displacement.dot(radial), r, 1e-8) << "r = " << r;
+      EXPECT_NEAR(f.displacement.z(), -2 * (1 - 2 * nu) / (pi * (1 - nu)) * std::sqrt(1 - r * r), 1e-8) << "r = " << r;
+    }
+  // Far away it decays like a force dipole's field, u ~ R⁻²: self-equilibrated.
+  const double near = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {6, 0, 8}).displacement.norm();
+  const double far = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {12, 0, 16}).displacement.norm();
+  EXPECT_NEAR(far / near, 0.25, 0.02);
+}
+
+TEST(PunchField, RadialModeLoadHasNoResultantAndItsEnergyIsClosedForm) {
+  const geometry::Material material = unit_material();
+  std::vector<double> x, w;
+  gauss_legendre(24, x, w);
+  Eigen::Vector3d resultant = Eigen::Vector3d::Zero();
+  double energy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double t = 0.5 * pi * x[i], r = std::sin(t), weight = w[i] * 0.5 * pi * r * std::cos(t);
+    for (int k = 0; k < 64; ++k) {
+      const double phi = 2 * pi * (k + 0.5) / 64;
+      const PunchFieldSample f = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r * std::cos(phi), r * std::sin(phi), 1e-9});
+      resultant -= weight * (2 * pi / 64) * f.stress_Pa_per_m.col(2);
+      energy -= weight * (2 * pi / 64) * f.displacement.dot(f.stress_Pa_per_m.col(2));
+    }
+  }
+  const double closed_form = punch_half_space_stiffness_N_per_m(PunchMode::radial, 1.0, material);
+  EXPECT_NEAR(closed_form, 16 * material.shear_modulus_Pa() / (3 * (1 - material.poisson_ratio)), 1e-14);
+  EXPECT_NEAR(energy / closed_form, 1.0, 1e-5);
+  EXPECT_LT(resultant.norm(), 1e-5 * closed_form);  // the stress is a finite difference (1e-6)
+}
+
 TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
   const geometry::Material material = unit_material();
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2})
@@ -123,13 +170,19 @@ TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
       const double scale = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.5}).stress_Pa_per_m.norm();
       EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * scale) << "mode " << int(mode) << " r = " << r;
     }
+  // The radial mode's stresses fall off fast with depth: measured against the in-plane stress
+  // of the surface point itself.
+  for (const double r : {1.2, 2.0, 4.0}) {
+    const PunchFieldSample f = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.0});
+    EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * f.stress_Pa_per_m.norm()) << "radial mode, r = " << r;
+  }
 }
 
 TEST(PunchField, StressesAreInEquilibrium) {
   // div σ = 0 by central differences of the returned stress.
   const geometry::Material material = unit_material();
   const double h = 1e-5;
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1})
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial})
     for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
       Eigen::Vector3d divergence = Eigen::Vector3d::Zero();
       for (int j = 0; j < 3; ++j) {
@@ -153,27 +206,28 @@ TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
   const auto strain_of = [&](const Eigen::Matrix3d& stress) {
     return Eigen::Matrix3d((stress - lambda / (3 * lambda + 2 * mu) * stress.trace() * Eigen::Matrix3d::Identity()) / (2 * mu));
   };
-  const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2};
-  Eigen::Matrix3d volume = Eigen::Matrix3d::Zero(), boundary = Eigen::Matrix3d::Zero();
+  const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial};
+  constexpr std::size_t count = std::size(modes);
+  Eigen::Matrix4d volume = Eigen::Matrix4d::Zero(), boundary = Eigen::Matrix4d::Zero();
   const auto fields_at = [&](const Eigen::Vector3d& p) {
-    std::array<PunchFieldSample, 3> f;
-    for (int m = 0; m < 3; ++m) f[static_cast<std::size_t>(m)] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
+    std::array<PunchFieldSample, count> f;
+    for (std::size_t m = 0; m < count; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
     return f;
   };
   for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_volume_rule(low, high, 16)) {
-    const std::array<PunchFieldSample, 3> f = fields_at(q.position_m);
-    for (std::size_t m = 0; m < 3; ++m)
-      for (std::size_t n = 0; n < 3; ++n)
+    const std::array<PunchFieldSample, count> f = fields_at(q.position_m);
+    for (std::size_t m = 0; m < count; ++m)
+      for (std::size_t n = 0; n < count; ++n)
         volume(m, n) += q.weight * (f[m].stress_Pa_per_m.cwiseProduct(strain_of(f[n].stress_Pa_per_m))).sum();
   }
   for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_surface_rule(low, high, 16)) {
-    const std::array<PunchFieldSample, 3> f = fields_at(q.position_m);
-    for (std::size_t m = 0; m < 3; ++m)
-      for (std::size_t n = 0; n < 3; ++n) boundary(m, n) += q.weight * f[n].displacement.dot(f[m].stress_Pa_per_m * q.normal);
+    const std::array<PunchFieldSample, count> f = fields_at(q.position_m);
+    for (std::size_t m = 0; m < count; ++m)
+      for (std::size_t n = 0; n < count; ++n) boundary(m, n) += q.weight * f[n].displacement.dot(f[m].stress_Pa_per_m * q.normal);
   }
   EXPECT_NEAR(boundary(0, 0) / volume(0, 0), 1.0, 1e-6);  // ψ_normal, closed-form stresses
-  for (int m = 0; m < 3; ++m)
-    for (int n = 0; n < 3; ++n)  // the tangential modes' stresses are finite differences
+  for (int m = 0; m < 4; ++m)
+    for (int n = 0; n < 4; ++n)  // the other modes' stresses are finite differences
       EXPECT_NEAR(boundary(m, n), volume(m, n), 1e-5 * volume.diagonal().maxCoeff()) << m << n;
 }
 
@@ -184,7 +238,7 @@ TEST(PunchField, AFrameRotatesTheField) {
   EXPECT_NEAR((frame.axes.transpose() * frame.axes - Eigen::Matrix3d::Identity()).norm(), 0, 1e-14);
   EXPECT_NEAR(frame.axes.determinant(), 1, 1e-14);
   const Eigen::Vector3d local(0.4, 0.7, 0.5), x = origin + frame.axes * local;
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2}) {
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial}) {
     const PunchFieldSample global = punch_field(mode, frame, 1.0, material, x);
     const PunchFieldSample reference = punch_field(mode, PunchFrame{}, 1.0, material, local);
     EXPECT_LT((frame.axes.transpose() * global.displacement - reference.displacement).norm(), 1e-12);

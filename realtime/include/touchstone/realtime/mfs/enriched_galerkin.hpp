@@ -116,8 +116,13 @@ struct EnrichedModel {
 };
 
 /// The enrichment fields for a contact: the normal mode alone for a frictionless tool pushing
-/// along the patch normal (within 1°), all three modes for a bonded or oblique one.
+/// along the patch normal (within 1°), the three translations for an oblique frictionless one,
+/// and the translations plus the radial shear mode for a bonded one.
 std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame);
+
+/// How many of `modes` are punch translations (they come first; an organ atlas holds their
+/// exterior stiffness).
+int translation_mode_count(const std::vector<PunchMode>& modes);
 
 /// The cut multipliers' polynomial degree for a cloud of node_count nodes: the setting, or for
 /// −1: 1 below 40 nodes, 2 up to 120, 3 beyond.
@@ -139,8 +144,9 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
                           PunchFrame& frame, std::string& failure);
 
 /// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
-/// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (m × m in
-/// mode order, m = enrichment_modes().size()) and ignored otherwise.
+/// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (t × t in
+/// mode order over the t = translation_mode_count() translations; the radial mode's exterior
+/// terms are the half-space's) and ignored otherwise.
 EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quadratures, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,

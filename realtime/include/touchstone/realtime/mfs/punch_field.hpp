@@ -9,14 +9,20 @@
 /// Tangential modes (stuck punch, Mindlin/Johnson): the punch moved by Δ along one of its face's
 /// axes with force Q = 8 G a Δ / (2 − ν); the ≈ 1 % normal–tangential coupling at ν = 0.45 is
 /// neglected (exact at ν = 0.5).
+/// Radial shear mode: the self-equilibrated surface shear τ_r = 4G/(πa(1 − ν)) · r / √(a² − r²)
+/// on the disk, no normal traction anywhere. Under the disk u_r = r / a (1 at the rim) and
+/// u_z = −2(1 − 2ν)/(π(1 − ν)) √(1 − r²/a²); its energy ∮ u·t = 16 G a / (3(1 − ν)). Added to the
+/// normal mode it lets the bonded punch hold the radial slip that Sneddon's frictionless field has
+/// under the disk, u_r = −(1 − 2ν)/(π(1 − ν)) (a − √(a² − r²)) / r per metre of depth.
 ///
 /// Frame: origin at the centre of the rim circle, e₃ along the push direction (into the body),
 /// e₁, e₂ spanning the rim plane; z = e₃·(x − origin) ≥ 0 inside a half-space. The complex
 /// branch q = −i √(−(r² + s²)), s = z − i a, continues smoothly through the contact disk into
 /// z < 0 for r < a, so the field can be anchored on the rim plane of a slightly curved patch.
 ///
-/// Every field is per metre of punch displacement (δ or Δ = 1 m): displacements are
-/// dimensionless [m/m] and stresses are in [Pa/m]. Displacements do not depend on G.
+/// Every field is per metre of punch displacement (δ, Δ or the rim's radial displacement = 1 m):
+/// displacements are dimensionless [m/m] and stresses are in [Pa/m]. Displacements do not depend
+/// on G.
 
 #include "touchstone/geometry/material.hpp"
 
@@ -26,8 +32,9 @@
 
 namespace touchstone::realtime::mfs {
 
-/// The three rigid translations of the punch face: along e₃ (normal), e₁, e₂ (tangential).
-enum class PunchMode : std::uint8_t { normal = 0, tangential_1 = 1, tangential_2 = 2 };
+/// The three rigid translations of the punch face, along e₃ (normal) and e₁, e₂ (tangential), and
+/// the radial shear of the face (radial).
+enum class PunchMode : std::uint8_t { normal = 0, tangential_1 = 1, tangential_2 = 2, radial = 3 };
 
 /// Where a punch field lives: origin at the rim-circle centre, rotation columns (e₁, e₂, e₃),
 /// e₃ the push direction into the body.
@@ -53,7 +60,8 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
                              const Eigen::Vector3d& x) noexcept;
 
 /// The half-space tool stiffness of each mode [N/m]: 4 G a / (1 − ν) (normal), 8 G a / (2 − ν)
-/// (tangential).
+/// (tangential), and for the radial mode its energy per unit rim displacement squared,
+/// 16 G a / (3(1 − ν)).
 double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept;
 
 }  // namespace touchstone::realtime::mfs
