@@ -120,9 +120,10 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 benchmark::Counter per_iteration(double value) { return benchmark::Counter(value, benchmark::Counter::kAvgIterations); }
 
 /// build_local_model every iteration, the way the model loop rebuilds when the contact moves.
-void build(benchmark::State& state, const LocalModelSettings& settings) {
+void build_with_contact(benchmark::State& state, const LocalModelSettings& settings, touchstone::geometry::ContactCondition condition) {
   const TriangleSurface& surface = organ();
-  const ToolContact contact = pole_contact();
+  ToolContact contact = pole_contact();
+  contact.condition = condition;
   const Material material = tissue();
   double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0;
   double nodes = 0, extra_points = 0, stiffness_zz = 0, mls_evaluations = 0;
@@ -158,6 +159,10 @@ void build(benchmark::State& state, const LocalModelSettings& settings) {
   state.counters["factorize_ms"] = per_iteration(1e3 * factorize_s);
   state.counters["condense_ms"] = per_iteration(1e3 * condense_s);
   if (mls_evaluations > 0) state.counters["mls_evaluations"] = mls_evaluations;
+}
+
+void build(benchmark::State& state, const LocalModelSettings& settings) {
+  build_with_contact(state, settings, touchstone::geometry::ContactCondition::frictionless);
 }
 
 /// Assembly, factorisation and the three tool right-hand sides on a cloud sprinkled once: the
@@ -279,9 +284,20 @@ void BM_BuildEnriched(benchmark::State& state) {
   build(state, settings);
 }
 
+/// The same with a bonded tool: three more singular fields (two tangential, one radial shear),
+/// whose stresses are finite differences, and three times the patch multipliers.
+void BM_BuildEnrichedBonded(benchmark::State& state) {
+  LocalModelSettings settings;
+  settings.sprinkling.node_count = static_cast<int>(state.range(0));
+  settings.sprinkling.local_radius_m = local_radius_m;
+  settings.enriched.exterior = touchstone::realtime::mfs::ExteriorCondition::clamped;
+  build_with_contact(state, settings, touchstone::geometry::ContactCondition::bonded);
+}
+
 BENCHMARK(BM_PaperMode34)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_BuildGalerkin)->Arg(34)->Arg(100)->Arg(200)->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnriched)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BuildEnrichedBonded)->Arg(34)->Arg(60)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_HapticTick);
 BENCHMARK(BM_SolveLocalModel)->Arg(34)->Arg(200)->Unit(benchmark::kMicrosecond);
 

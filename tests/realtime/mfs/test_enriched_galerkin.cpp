@@ -6,6 +6,7 @@
 #include "touchstone/meshes/msh_reader.hpp"
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
+#include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "support/box_quadrature.hpp"
 
@@ -124,6 +125,39 @@ TEST(EnrichedGalerkin, HalfSpaceBondedNormalForceIsMossakovskiis) {
       EXPECT_NEAR(error, 0.0, tolerance) << "nu = " << nu << ", N = " << b.cloud.size();
     }
   }
+}
+
+// A bonded tool asks the atlas for the three translations only and takes the radial shear mode's
+// exterior terms from the half-space: an atlas that answers with the half-space's own
+// translation block must give the half-space model, and a 4 × 4 answer is refused by name.
+TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
+  const ToolContact contact = top_contact(geometry::ContactCondition::bonded);
+  const geometry::Material material;
+  const LocalSurface surface(flat_body(), contact.point, 1.3 * length);
+  EnrichedSettings settings;
+  EnrichedQuadratures quadratures;
+  PunchFrame frame;
+  std::string failure;
+  ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  ASSERT_EQ(modes.size(), 4u);
+  ASSERT_EQ(translation_mode_count(modes), 3);
+  const Eigen::MatrixXd half_space = half_space_exterior_stiffness(modes, frame, a, material, quadratures.cut);
+  const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};
+  const auto build_with = [&](ExteriorCondition exterior, const Eigen::MatrixXd* k) {
+    NodeCloud cloud = sprinkle_even_nodes(surface, contact, 40, length, 1);
+    settings.exterior = exterior;
+    return build_enriched_model(cloud, material, contact, quadratures, frame, settings, mls, k);
+  };
+  const EnrichedModel reference = build_with(ExteriorCondition::half_space, nullptr);
+  ASSERT_TRUE(reference.ok()) << reference.status;
+  const Eigen::MatrixXd translations = half_space.topLeftCorner(3, 3);
+  const EnrichedModel body = build_with(ExteriorCondition::body_aware, &translations);
+  ASSERT_TRUE(body.ok()) << body.status;
+  EXPECT_LT((body.exterior_stiffness_N_per_m - half_space).norm(), 1e-12 * half_space.norm());
+  EXPECT_LT((body.tool_stiffness_N_per_m - reference.tool_stiffness_N_per_m).norm(), 1e-9 * reference.tool_stiffness_N_per_m.norm());
+  const EnrichedModel wrong = build_with(ExteriorCondition::body_aware, &half_space);
+  EXPECT_EQ(wrong.status, "body_aware exterior without an exterior stiffness of the right size");
 }
 
 // B3, the identical domain (hemisphere R = 20a ∩ ball(pole, 5a), cut clamped), against its
