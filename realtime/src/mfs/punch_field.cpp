@@ -92,16 +92,21 @@ Eigen::Vector3d tangential_displacement_off_axis(const Eigen::Vector3d& p, doubl
           C * ((1 - 2 * nu) * phi_r - z * chi_r) * c};
 }
 
-/// The same on and near the axis too: within 1e-3 a of it (where the closed form divides by r)
-/// the mean of the two points at ±1e-3 a across the axis, second-order accurate (the field is
-/// smooth there).
-Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, double nu) {
+/// A closed form that divides by r, continued onto and near the axis: within 1e-3 a of it the
+/// linear interpolation between the two points at ±1e-3 a across the axis, second-order accurate
+/// (the fields are smooth there).
+template <class OffAxis>
+Eigen::Vector3d continued_to_the_axis(const Eigen::Vector3d& p, double a, OffAxis off_axis) {
   const double r = std::hypot(p.x(), p.y()), eps = 1e-3 * a;
-  if (r >= eps) return tangential_displacement_off_axis(p, a, nu);
+  if (r >= eps) return off_axis(p);
   const Eigen::Vector2d dir = r > 0 ? Eigen::Vector2d(p.x() / r, p.y() / r) : Eigen::Vector2d(1, 0);
   const Eigen::Vector3d plus(dir.x() * eps, dir.y() * eps, p.z()), minus(-dir.x() * eps, -dir.y() * eps, p.z());
   const double t = (r + eps) / (2 * eps);  // linear interpolation weight of `plus`
-  return t * tangential_displacement_off_axis(plus, a, nu) + (1 - t) * tangential_displacement_off_axis(minus, a, nu);
+  return t * off_axis(plus) + (1 - t) * off_axis(minus);
+}
+
+Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, double nu) {
+  return continued_to_the_axis(p, a, [&](const Eigen::Vector3d& y) { return tangential_displacement_off_axis(y, a, nu); });
 }
 
 /// The radial shear mode per metre of radial displacement at the rim, in the punch frame: the
@@ -133,6 +138,45 @@ Eigen::Vector3d radial_displacement(const Eigen::Vector3d& p, double a, double n
   const double scale = 4 / (pi * a);  // u_r = 1 at the rim
   const double c = r > 0 ? p.x() / r : 1.0, sn = r > 0 ? p.y() / r : 0.0;
   return scale * Eigen::Vector3d(ur * c, ur * sn, uz);
+}
+
+/// The frictionless punch tilted about local y per metre of rim displacement (u_z = x/a on the
+/// disk), in the punch frame: Boussinesq's shear-free solution u_h = −K[(1 − 2ν)∇_hΦ + z∇_hχ],
+/// u_z = K[2(1 − ν)χ − z∂_zχ], K = 1/(π(1 − ν)), with the pressure x/√(a² − r²) = −∂_x √(a² − r²):
+/// its potential is the x-derivative of Hertz's, χ = (2/a) ∂_xφ₁, and Φ = (2/a) ∂_xΦ₁ with
+/// ∂_zΦ₁ = φ₁. In the radial mode's oblate coordinates (AC = arccot ξ, R = √(1 + ξ²),
+/// S = √(1 − η²) = r/(aR)):
+///   φ₁,r = aS((1 + ξ²)AC − ξ)/(2R),  φ₁,rr = AC/2 + ξ(η² − ξ² − 2)/(2(ξ² + η²)(1 + ξ²)),
+///   Φ₁,r = a²[η(1 − η²)(3ξ(1 + ξ²)AC − 3ξ²) − 2(1 − η³)]/(6RS),
+///   Φ₁,rr = a[η(3ξ(1 + ξ²)AC − 3ξ² − 4)/(6(1 + ξ²)) + 1/(3(1 + η)(1 + ξ²))],
+///   ∂_rf = −Sη/(R(ξ² + η²)) with f = ∂_zφ₁. Needs r > 0.
+Eigen::Vector3d tilt_displacement_off_axis(const Eigen::Vector3d& p, double a, double nu) {
+  const double r = std::hypot(p.x(), p.y()), z = p.z();
+  const double c = p.x() / r, sn = p.y() / r;
+  const Helpers h(r, z, a);
+  const double xi = h.q.real() / a, eta = -h.q.imag() / a;
+  const double ac = std::atan2(1.0, xi), xi2 = xi * xi, R = std::sqrt(1 + xi2), S = r / (a * R);
+  const double rho2 = xi2 + eta * eta;
+  const double phi_r = a * S * ((1 + xi2) * ac - xi) / (2 * R);
+  // z φ₁,rr and z ∂_rf with z = aξη: bounded at the rim, where the second derivatives are not.
+  const double z_phi_rr = z * ac / 2 + (rho2 > 0 ? a * xi * eta * xi * (eta * eta - xi2 - 2) / (2 * rho2 * (1 + xi2)) : 0.0);
+  const double z_f_r = rho2 > 0 ? -a * xi * eta * S * eta / (R * rho2) : 0.0;
+  const double bracket = 3 * xi * (1 + xi2) * ac - 3 * xi2;
+  const double big_phi_r = a * a * (eta * (1 - eta * eta) * bracket - 2 * (1 - eta * eta * eta)) / (6 * R * S);
+  const double big_phi_rr = a * (eta * (bracket - 4) / (6 * (1 + xi2)) + 1 / (3 * (1 + eta) * (1 + xi2)));
+  const double K = 1 / (pi * (1 - nu)), scale = 2 / a;
+  const double chi = scale * c * phi_r;
+  const double z_chi_x = scale * (z_phi_rr * c * c + z * phi_r / r * sn * sn);
+  const double z_chi_y = scale * (z_phi_rr - z * phi_r / r) * c * sn;
+  const double z_chi_z = scale * c * z_f_r;
+  const double big_phi_x = scale * (big_phi_rr * c * c + big_phi_r / r * sn * sn);
+  const double big_phi_y = scale * (big_phi_rr - big_phi_r / r) * c * sn;
+  return {-K * ((1 - 2 * nu) * big_phi_x + z_chi_x), -K * ((1 - 2 * nu) * big_phi_y + z_chi_y),
+          K * (2 * (1 - nu) * chi - z_chi_z)};
+}
+
+Eigen::Vector3d tilt_displacement(const Eigen::Vector3d& p, double a, double nu) {
+  return continued_to_the_axis(p, a, [&](const Eigen::Vector3d& y) { return tilt_displacement_off_axis(y, a, nu); });
 }
 
 /// Where a point may be evaluated: never above the rim plane outside the rim (the branch cut).
@@ -189,7 +233,7 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
   Eigen::Vector3d local = R.transpose() * (x - frame.origin);
   // The tangential_2 mode is the tangential_1 mode turned by 90° about e₃: u₂(p) = Q u₁(Qᵀ p).
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
-  if (mode == PunchMode::tangential_2) turn << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  if (mode == PunchMode::tangential_2 || mode == PunchMode::tilt_2) turn << 0, -1, 0, 1, 0, 0, 0, 0, 1;
   local = turn.transpose() * local;
   const double a = radius_m, nu = material.poisson_ratio;
   PunchFieldSample sample;
@@ -201,6 +245,10 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
       break;
     case PunchMode::radial:
       sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return radial_displacement(y, a, nu); });
+      break;
+    case PunchMode::tilt_1:
+    case PunchMode::tilt_2:
+      sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return tilt_displacement(y, a, nu); });
       break;
   }
   const Eigen::Matrix3d to_global = R * turn;
@@ -216,6 +264,8 @@ double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const
     case PunchMode::tangential_1:
     case PunchMode::tangential_2: return 8 * G * radius_m / (2 - nu);
     case PunchMode::radial: return 16 * G * radius_m / (3 * (1 - nu));
+    case PunchMode::tilt_1:
+    case PunchMode::tilt_2: return 8 * G * radius_m / (3 * (1 - nu));
   }
   return 0;
 }

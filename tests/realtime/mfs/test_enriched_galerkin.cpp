@@ -87,9 +87,10 @@ TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
   }
 }
 
-// The stuck tangential field neglects the ≈ 1 % normal–tangential coupling, so the MLS part must
-// carry it: within 1 % once it resolves the patch (asserted from N = 100; the smaller N are
-// printed, for the README).
+// The stuck tangential field neglects the ≈ 1 % normal–tangential coupling: its u₃ is odd under
+// the disk, and the patch holds the tilt that makes. The tilt modes carry it, so the stiffness is
+// within 1 % at every N (measured +0.09 %; before the tilt modes the MLS part had to, and it was
+// +9.3 % at 18 nodes, +4.8 % at 32, +1.4 % at 55).
 TEST(EnrichedGalerkin, HalfSpaceStuckTangentialForceWithinOnePercent) {
   const geometry::Material material;
   const double exact = punch_half_space_stiffness_N_per_m(PunchMode::tangential_1, a, material);
@@ -98,7 +99,6 @@ TEST(EnrichedGalerkin, HalfSpaceStuckTangentialForceWithinOnePercent) {
     ASSERT_TRUE(b.model.ok()) << b.model.status;
     const double kxx = b.model.tool_stiffness_N_per_m(0, 0) / exact - 1, kyy = b.model.tool_stiffness_N_per_m(1, 1) / exact - 1;
     std::printf("half-space, stuck tangential: N = %zu  k_xx %+.2f %%  k_yy %+.2f %%\n", b.cloud.size(), 100 * kxx, 100 * kyy);
-    if (nodes < 100) continue;
     EXPECT_NEAR(kxx, 0.0, 0.01) << "N = " << b.cloud.size();
     EXPECT_NEAR(kyy, 0.0, 0.01) << "N = " << b.cloud.size();
   }
@@ -127,9 +127,9 @@ TEST(EnrichedGalerkin, HalfSpaceBondedNormalForceIsMossakovskiis) {
   }
 }
 
-// A bonded tool asks the atlas for the three translations only and takes the radial shear mode's
-// exterior terms from the half-space: an atlas that answers with the half-space's own
-// translation block must give the half-space model, and a 4 × 4 answer is refused by name.
+// A bonded tool asks the atlas for the three translations only and takes the radial shear and
+// tilt modes' exterior terms from the half-space: an atlas that answers with the half-space's own
+// translation block must give the half-space model, and a 6 × 6 answer is refused by name.
 TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
   const ToolContact contact = top_contact(geometry::ContactCondition::bonded);
   const geometry::Material material;
@@ -140,7 +140,7 @@ TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
   std::string failure;
   ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
   const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
-  ASSERT_EQ(modes.size(), 4u);
+  ASSERT_EQ(modes.size(), 6u);
   ASSERT_EQ(translation_mode_count(modes), 3);
   const Eigen::MatrixXd half_space = half_space_exterior_stiffness(modes, frame, a, material, quadratures.cut);
   const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};

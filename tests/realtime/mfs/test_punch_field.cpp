@@ -1,8 +1,9 @@
 // The punch fields against the closed-form oracle tests/oracles/sneddon_field.py (values below
 // printed by it for a = G = 1, ν = 0.45, unit depth / unit tangential displacement), their
-// boundary conditions, equilibrium and resultants, and the frame transformation. The radial mode
-// has no oracle of its own: the conditions that make the half-space solution unique are checked
-// instead (its surface tractions, equilibrium, decay).
+// boundary conditions, equilibrium and resultants, and the frame transformation. The radial and
+// tilt modes have no oracle of their own: the conditions that make the half-space solution
+// unique are checked instead (surface tractions and displacements, equilibrium, decay,
+// resultants).
 #include "support/box_quadrature.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
@@ -83,11 +84,15 @@ TEST(PunchField, TangentialModeMatchesTheOracle) {
 
 TEST(PunchField, NearTheAxisTheSeriesContinueTheClosedForms) {
   const geometry::Material material = unit_material();
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial}) {
+  // The near-axis value against the line through two closed-form values farther out (the tilt
+  // mode's field vanishes linearly on the axis, so a plain difference would measure its slope).
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial, PunchMode::tilt_1}) {
     const PunchFieldSample on = punch_field(mode, PunchFrame{}, 1.0, material, {2e-4, 1e-4, 0.4});
     const PunchFieldSample off = punch_field(mode, PunchFrame{}, 1.0, material, {2e-3, 1e-3, 0.4});
-    EXPECT_LT((on.displacement - off.displacement).norm(), 1e-3 * off.displacement.norm());
-    EXPECT_LT((on.stress_Pa_per_m - off.stress_Pa_per_m).norm(), 1e-2 * off.stress_Pa_per_m.norm());
+    const PunchFieldSample farther = punch_field(mode, PunchFrame{}, 1.0, material, {4e-3, 2e-3, 0.4});
+    const Eigen::Vector3d line = off.displacement + (off.displacement - farther.displacement) * 0.9;  // at 1/10 of off
+    EXPECT_LT((on.displacement - line).norm(), 1e-3 * off.displacement.norm()) << "mode " << int(mode);
+    EXPECT_LT((on.stress_Pa_per_m - off.stress_Pa_per_m).norm(), 1e-2 * off.stress_Pa_per_m.norm()) << "mode " << int(mode);
     EXPECT_TRUE(punch_field(mode, PunchFrame{}, 1.0, material, {0, 0, 0.4}).stress_Pa_per_m.allFinite());
   }
 }
@@ -162,6 +167,42 @@ TEST(PunchField, RadialModeLoadHasNoResultantAndItsEnergyIsClosedForm) {
   EXPECT_LT(resultant.norm(), 1e-5 * closed_form);  // the stress is a finite difference (1e-6)
 }
 
+/// The tilt mode: on the disk u₃ = x₁/a and no shear (frictionless); its load has no resultant,
+/// its moment about e₂ is 8Ga²/(3(1 − ν)) and its energy 8Ga/(3(1 − ν)) per unit rim displacement
+/// (a tilted flat punch: M = (4/3) E* a³ θ with θ = 1/a).
+TEST(PunchField, TiltModeTurnsTheDiskAndCarriesTheFlatPunchMoment) {
+  const geometry::Material material = unit_material();
+  const double nu = material.poisson_ratio, G = material.shear_modulus_Pa();
+  for (const double r : {0.05, 0.3, 0.7, 0.95})
+    for (const double phi : {0.3, 2.0}) {
+      const Eigen::Vector3d x(r * std::cos(phi), r * std::sin(phi), 1e-9);
+      const PunchFieldSample f = punch_field(PunchMode::tilt_1, PunchFrame{}, 1.0, material, x);
+      EXPECT_NEAR(f.displacement.z(), x.x(), 1e-8) << "r = " << r;
+      const double pressure = std::abs(f.stress_Pa_per_m(2, 2));
+      EXPECT_LT(f.stress_Pa_per_m.col(2).head<2>().norm(), 1e-5 * pressure + 1e-7) << "r = " << r;
+    }
+  std::vector<double> t, w;
+  gauss_legendre(24, t, w);
+  Eigen::Vector3d resultant = Eigen::Vector3d::Zero();
+  double moment = 0, energy = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const double angle = 0.5 * pi * t[i], r = std::sin(angle), weight = w[i] * 0.5 * pi * r * std::cos(angle);
+    for (int k = 0; k < 64; ++k) {
+      const double phi = 2 * pi * (k + 0.5) / 64;
+      const PunchFieldSample f = punch_field(PunchMode::tilt_1, PunchFrame{}, 1.0, material, {r * std::cos(phi), r * std::sin(phi), 1e-9});
+      const Eigen::Vector3d traction_on_tissue = -f.stress_Pa_per_m.col(2);
+      resultant += weight * (2 * pi / 64) * traction_on_tissue;
+      moment += weight * (2 * pi / 64) * r * std::cos(phi) * traction_on_tissue.z();
+      energy += weight * (2 * pi / 64) * f.displacement.dot(traction_on_tissue);
+    }
+  }
+  const double closed_form = punch_half_space_stiffness_N_per_m(PunchMode::tilt_1, 1.0, material);
+  EXPECT_NEAR(closed_form, 8 * G / (3 * (1 - nu)), 1e-14);
+  EXPECT_NEAR(moment / closed_form, 1.0, 1e-5);  // a = 1: the moment per unit rim displacement
+  EXPECT_NEAR(energy / closed_form, 1.0, 1e-5);
+  EXPECT_LT(resultant.norm(), 1e-5 * closed_form);
+}
+
 TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
   const geometry::Material material = unit_material();
   for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2})
@@ -170,19 +211,20 @@ TEST(PunchField, FreeSurfaceOutsideThePunchIsTractionFree) {
       const double scale = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.5}).stress_Pa_per_m.norm();
       EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * scale) << "mode " << int(mode) << " r = " << r;
     }
-  // The radial mode's stresses fall off fast with depth: measured against the in-plane stress
-  // of the surface point itself.
-  for (const double r : {1.2, 2.0, 4.0}) {
-    const PunchFieldSample f = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.0});
-    EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * f.stress_Pa_per_m.norm()) << "radial mode, r = " << r;
-  }
+  // The radial and tilt modes' stresses fall off fast with depth: measured against the in-plane
+  // stress of the surface point itself.
+  for (const PunchMode mode : {PunchMode::radial, PunchMode::tilt_1})
+    for (const double r : {1.2, 2.0, 4.0}) {
+      const PunchFieldSample f = punch_field(mode, PunchFrame{}, 1.0, material, {r * 0.6, r * 0.8, 0.0});
+      EXPECT_LT(f.stress_Pa_per_m.col(2).norm(), 1e-5 * f.stress_Pa_per_m.norm()) << "mode " << int(mode) << ", r = " << r;
+    }
 }
 
 TEST(PunchField, StressesAreInEquilibrium) {
   // div σ = 0 by central differences of the returned stress.
   const geometry::Material material = unit_material();
   const double h = 1e-5;
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial})
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::radial, PunchMode::tilt_1})
     for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.3, 0.4, 0.6), Eigen::Vector3d(1.6, -0.5, 0.7)}) {
       Eigen::Vector3d divergence = Eigen::Vector3d::Zero();
       for (int j = 0; j < 3; ++j) {
@@ -206,9 +248,10 @@ TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
   const auto strain_of = [&](const Eigen::Matrix3d& stress) {
     return Eigen::Matrix3d((stress - lambda / (3 * lambda + 2 * mu) * stress.trace() * Eigen::Matrix3d::Identity()) / (2 * mu));
   };
-  const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial};
+  const PunchMode modes[] = {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2,
+                             PunchMode::radial, PunchMode::tilt_1, PunchMode::tilt_2};
   constexpr std::size_t count = std::size(modes);
-  Eigen::Matrix4d volume = Eigen::Matrix4d::Zero(), boundary = Eigen::Matrix4d::Zero();
+  Eigen::Matrix<double, count, count> volume = Eigen::Matrix<double, count, count>::Zero(), boundary = volume;
   const auto fields_at = [&](const Eigen::Vector3d& p) {
     std::array<PunchFieldSample, count> f;
     for (std::size_t m = 0; m < count; ++m) f[m] = punch_field(modes[m], PunchFrame{}, 1.0, material, p);
@@ -226,8 +269,8 @@ TEST(PunchField, BoundaryFormEqualsVolumeIntegral) {
       for (std::size_t n = 0; n < count; ++n) boundary(m, n) += q.weight * f[n].displacement.dot(f[m].stress_Pa_per_m * q.normal);
   }
   EXPECT_NEAR(boundary(0, 0) / volume(0, 0), 1.0, 1e-6);  // ψ_normal, closed-form stresses
-  for (int m = 0; m < 4; ++m)
-    for (int n = 0; n < 4; ++n)  // the other modes' stresses are finite differences
+  for (int m = 0; m < static_cast<int>(count); ++m)
+    for (int n = 0; n < static_cast<int>(count); ++n)  // the other modes' stresses are finite differences
       EXPECT_NEAR(boundary(m, n), volume(m, n), 1e-5 * volume.diagonal().maxCoeff()) << m << n;
 }
 
@@ -238,7 +281,8 @@ TEST(PunchField, AFrameRotatesTheField) {
   EXPECT_NEAR((frame.axes.transpose() * frame.axes - Eigen::Matrix3d::Identity()).norm(), 0, 1e-14);
   EXPECT_NEAR(frame.axes.determinant(), 1, 1e-14);
   const Eigen::Vector3d local(0.4, 0.7, 0.5), x = origin + frame.axes * local;
-  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial}) {
+  for (const PunchMode mode : {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial,
+                               PunchMode::tilt_1, PunchMode::tilt_2}) {
     const PunchFieldSample global = punch_field(mode, frame, 1.0, material, x);
     const PunchFieldSample reference = punch_field(mode, PunchFrame{}, 1.0, material, local);
     EXPECT_LT((frame.axes.transpose() * global.displacement - reference.displacement).norm(), 1e-12);
@@ -250,6 +294,8 @@ TEST(PunchField, AFrameRotatesTheField) {
   EXPECT_NEAR(t2.displacement.x(), -t1.displacement.y(), 1e-14);
   EXPECT_NEAR(t2.displacement.y(), t1.displacement.x(), 1e-14);
   EXPECT_NEAR(t2.displacement.z(), t1.displacement.z(), 1e-14);
+  // and tilt_2 is tilt_1 turned the same way: u₃ = x₂/a on the disk.
+  EXPECT_NEAR(punch_field(PunchMode::tilt_2, PunchFrame{}, 1.0, material, {0.2, 0.5, 1e-9}).displacement.z(), 0.5, 1e-8);
 }
 
 }  // namespace

@@ -116,8 +116,8 @@ struct EnrichedModel {
 };
 
 /// The enrichment fields for a contact: the normal mode alone for a frictionless tool pushing
-/// along the patch normal (within 1°), the three translations for an oblique frictionless one,
-/// and the translations plus the radial shear mode for a bonded one.
+/// along the patch normal (within 1°); otherwise the three translations and the two tilts, and
+/// for a bonded tool the radial shear mode too.
 std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame);
 
 /// How many of `modes` are punch translations (they come first; an organ atlas holds their
@@ -145,8 +145,8 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
 
 /// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
 /// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (t × t in
-/// mode order over the t = translation_mode_count() translations; the radial mode's exterior
-/// terms are the half-space's) and ignored otherwise.
+/// mode order over the t = translation_mode_count() translations; the radial and tilt modes'
+/// exterior terms are the half-space's) and ignored otherwise.
 EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quadratures, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,

@@ -14,6 +14,10 @@
 /// u_z = −2(1 − 2ν)/(π(1 − ν)) √(1 − r²/a²); its energy ∮ u·t = 16 G a / (3(1 − ν)). Added to the
 /// normal mode it lets the bonded punch hold the radial slip that Sneddon's frictionless field has
 /// under the disk, u_r = −(1 − 2ν)/(π(1 − ν)) (a − √(a² − r²)) / r per metre of depth.
+/// Tilt modes (frictionless): the punch face turned so that u₃ = x₁/a (or x₂/a) on the disk, the
+/// pressure ∝ x₁/√(a² − r²); no resultant, moment 8Ga²/(3(1 − ν)) per unit rim displacement,
+/// energy 8Ga/(3(1 − ν)). They hold the tilt of the patch that the tangential modes' neglected
+/// coupling leaves (their u₃ is odd under the disk).
 ///
 /// Frame: origin at the centre of the rim circle, e₃ along the push direction (into the body),
 /// e₁, e₂ spanning the rim plane; z = e₃·(x − origin) ≥ 0 inside a half-space. The complex
@@ -32,9 +36,10 @@
 
 namespace touchstone::realtime::mfs {
 
-/// The three rigid translations of the punch face, along e₃ (normal) and e₁, e₂ (tangential), and
-/// the radial shear of the face (radial).
-enum class PunchMode : std::uint8_t { normal = 0, tangential_1 = 1, tangential_2 = 2, radial = 3 };
+/// The three rigid translations of the punch face, along e₃ (normal) and e₁, e₂ (tangential), the
+/// radial shear of the face (radial), and its tilts (tilt_1: u₃ = x₁/a on the face, a rotation
+/// about e₂; tilt_2: u₃ = x₂/a).
+enum class PunchMode : std::uint8_t { normal = 0, tangential_1 = 1, tangential_2 = 2, radial = 3, tilt_1 = 4, tilt_2 = 5 };
 
 /// Where a punch field lives: origin at the rim-circle centre, rotation columns (e₁, e₂, e₃),
 /// e₃ the push direction into the body.
@@ -60,8 +65,8 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
                              const Eigen::Vector3d& x) noexcept;
 
 /// The half-space tool stiffness of each mode [N/m]: 4 G a / (1 − ν) (normal), 8 G a / (2 − ν)
-/// (tangential), and for the radial mode its energy per unit rim displacement squared,
-/// 16 G a / (3(1 − ν)).
+/// (tangential), and for the radial and tilt modes their energy per unit rim displacement squared,
+/// 16 G a / (3(1 − ν)) and 8 G a / (3(1 − ν)).
 double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept;
 
 }  // namespace touchstone::realtime::mfs
