@@ -116,9 +116,9 @@ Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, doub
 /// that choice of φ₂ and whose shear stress is G/(1 − ν) ∂²φ₁/∂r∂z. φ₁ is Hertz's potential in
 /// oblate spheroidal coordinates (ξ, η) = (Re q, −Im q) / a:
 ///   φ₁ = −(a²/3) [arccot ξ + P₂(η) Q̃₂(ξ)],  f = ∂φ₁/∂z = a η (1 − ξ arccot ξ),
-/// so f = √(a² − r²) on the disk and 0 beyond it. Under the disk u_r = (π/4) r: the field
-/// carries the uniform radial strain of the patch that the frictionless field lets slip and a
-/// bonded punch holds.
+/// so f = √(a² − r²) on the disk and 0 beyond it. Under the disk u_r = (π/4) r before the
+/// scaling to a unit rim displacement: the field carries the uniform radial strain of the patch
+/// that the frictionless field lets slip and a bonded punch holds.
 Eigen::Vector3d radial_displacement(const Eigen::Vector3d& p, double a, double nu) {
   const double r = std::hypot(p.x(), p.y()), z = p.z();
   const Helpers h(r, z, a);
@@ -231,7 +231,7 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
                              const Eigen::Vector3d& x) noexcept {
   const Eigen::Matrix3d& R = frame.axes;
   Eigen::Vector3d local = R.transpose() * (x - frame.origin);
-  // The tangential_2 mode is the tangential_1 mode turned by 90° about e₃: u₂(p) = Q u₁(Qᵀ p).
+  // tangential_2 and tilt_2 are tangential_1 and tilt_1 turned by 90° about e₃: u₂(p) = Q u₁(Qᵀ p).
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
   if (mode == PunchMode::tangential_2 || mode == PunchMode::tilt_2) turn << 0, -1, 0, 1, 0, 0, 0, 0, 1;
   local = turn.transpose() * local;
