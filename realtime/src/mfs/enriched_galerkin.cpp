@@ -133,13 +133,13 @@ std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchF
   const bool along_normal = contact.direction.normalized().dot(frame.axes.col(2)) > std::cos(1.0 * 3.14159265358979323846 / 180);
   if (contact.condition == geometry::ContactCondition::frictionless && along_normal) return {PunchMode::normal};
   // The tangential modes neglect their normal coupling, so their u₃ is odd under the disk; the
-  // patch holds its tilt, and without the tilt modes the MLS part must (measured on a half-space:
-  // the stuck tangential stiffness +9.3 % at 18 nodes, +4.8 % at 32, +1.4 % at 55).
+  // patch holds its tilt, and without the tilt modes the MLS part must, which stiffens it at
+  // small N (docs/enriched_model.md, The tilt modes).
   if (contact.condition == geometry::ContactCondition::frictionless)
     return {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::tilt_1, PunchMode::tilt_2};
   // A bonded patch also holds the radial slip that the normal mode has under the disk; without
-  // the radial shear mode the MLS part must cancel it and locks below ~90 nodes (measured on B3:
-  // +26.6 % at 26 nodes, +3.1 % at 54).
+  // the radial shear mode the MLS part must cancel it and locks at small N
+  // (docs/enriched_model.md, The radial shear mode).
   return {PunchMode::normal, PunchMode::tangential_1, PunchMode::tangential_2, PunchMode::radial, PunchMode::tilt_1, PunchMode::tilt_2};
 }
 
