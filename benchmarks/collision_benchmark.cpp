@@ -24,6 +24,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -257,6 +258,56 @@ void first_contact_embree(benchmark::State& state, Scene* scene, bool coherent) 
   state.counters["triangles"] = static_cast<double>(scene->surface().triangles().size());
 }
 
+/// The ratio to Embree as a paired measurement: each iteration times all the moves through the
+/// tree and through Embree back to back (in alternating order), so that a shared machine's
+/// slow phases load both alike. Counters: the median over the iterations of the per-query
+/// times and of their ratio; the reported time is the tree's.
+void first_contact_against_embree(benchmark::State& state, Scene* scene, BvhSettings settings) {
+  const BoundingVolumeHierarchy& tree = scene->tree(settings);
+  const EmbreeScene& embree = scene->embree();
+  const std::vector<Segment>& segments = scene->segments();
+  QueryCounters counters;
+  for (const Segment& s : segments) tree.first_hit_segment(s.from, s.to, &counters);
+  using Clock = std::chrono::steady_clock;
+  const auto time_tree = [&] {
+    const auto start = Clock::now();
+    for (const Segment& s : segments) benchmark::DoNotOptimize(tree.first_hit_segment(s.from, s.to));
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
+  const auto time_embree = [&] {
+    const auto start = Clock::now();
+    for (const Segment& s : segments) benchmark::DoNotOptimize(embree.first_hit(s.from, s.to - s.from, 1.0));
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
+  std::vector<double> ours, theirs, ratios;
+  bool tree_first = true;
+  for (auto _ : state) {
+    double tree_s = 0, embree_s = 0;
+    if (tree_first) {
+      tree_s = time_tree();
+      embree_s = time_embree();
+    } else {
+      embree_s = time_embree();
+      tree_s = time_tree();
+    }
+    tree_first = !tree_first;
+    state.SetIterationTime(tree_s / query_count);
+    ours.push_back(tree_s / query_count * 1e9);
+    theirs.push_back(embree_s / query_count * 1e9);
+    ratios.push_back(tree_s / embree_s);
+  }
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  if (!ratios.empty()) {
+    state.counters["tree_ns"] = median(ours);
+    state.counters["embree_ns"] = median(theirs);
+    state.counters["ratio"] = median(ratios);
+  }
+  set_counters(state, counters, tree, false);
+}
+
 void closest_point(benchmark::State& state, Scene* scene, BvhSettings settings) {
   const BoundingVolumeHierarchy& tree = scene->tree(settings);
   const std::vector<Vector3d>& points = scene->near_points();
@@ -338,6 +389,13 @@ void register_scene(const std::string& label, Scene* scene) {
   benchmark::RegisterBenchmark(("first_contact/" + label + "/embree").c_str(), first_contact_embree, scene, false);
   for (BoundingVolume volume : volumes) {
     for (int leaf : {1, 2}) add_contact("first_contact_coherent", tree_settings(volume, 4, leaf, 2), true);
+  }
+  for (BoundingVolume volume : volumes) {
+    for (int leaf : {2, 4}) {
+      add("first_contact_against_embree", first_contact_against_embree, tree_settings(volume, 4, leaf, 2))
+          ->UseManualTime()
+          ->Iterations(200);
+    }
   }
   benchmark::RegisterBenchmark(("first_contact_coherent/" + label + "/embree").c_str(), first_contact_embree, scene,
                                true);

@@ -722,8 +722,55 @@ TEST(BoundingVolumeHierarchy, EntryGridGivesTheAnswersOfATraversalFromTheRoot) {
           EXPECT_EQ(c.triangle, d.triangle);
         }
         EXPECT_LT(grid_counters.box_tests, root_counters.box_tests);
-        EXPECT_EQ(grid_counters.triangle_tests, root_counters.triangle_tests);
+        // The same leaves are reachable, but a cover node's parts are not the tree's sibling
+        // pairs, so the visiting order differs, and a hit found earlier or later prunes
+        // different leaves (by 1.2 % at most over these cases, with leaves of 4).
+        EXPECT_NEAR(static_cast<double>(grid_counters.triangle_tests), static_cast<double>(root_counters.triangle_tests),
+                    0.03 * static_cast<double>(root_counters.triangle_tests));
       }
+    }
+  }
+}
+
+// The float box test of the AABB tree pads every box by the rounding of its inputs; 100 km
+// from the origin that rounding is coarse (float's ulp there is 8e-3 m, about an edge
+// here; without the pad this test fails) and the answers must still be brute force's. Beyond
+// 1e15 m the double test takes over.
+TEST(BoundingVolumeHierarchy, FloatBoxTestsPruneNoHitFarFromTheOrigin) {
+  Mesh mesh = geometry::icosphere(3, radius);
+  for (Vector3d& v : mesh.vertices) v += Vector3d(1e5, -7e4, 3e4);
+  std::vector<BoundingVolumeHierarchy> trees;
+  std::vector<std::string> names;
+  for (int width : {2, 4}) {
+    BvhSettings settings;
+    settings.bounding_volume = BoundingVolume::aabb;
+    settings.children_per_node = width;
+    trees.emplace_back(mesh.vertices, mesh.triangles, settings);
+    names.push_back("aabb width " + std::to_string(width));
+  }
+  std::vector<const BoundingVolumeHierarchy*> pointers;
+  for (const BoundingVolumeHierarchy& tree : trees) pointers.push_back(&tree);
+  // Segments and rays only: closest points use no float test, and their distances at 100 km
+  // carry the coordinates' double rounding (1e-11 m), beyond the helper's tolerance.
+  QueryMaker maker(mesh, 77);
+  Queries queries = maker.make(1500, 150);
+  queries.points.clear();
+  queries.contained.clear();
+  expect_brute_force_equality(mesh, pointers, names, queries, maker.scale());
+
+  // Segments from just outside the surface through it to 1e14 m (float test, a large pad)
+  // and 1e16 m (double test).
+  const Vector3d centre = Vector3d(1e5, -7e4, 3e4);
+  const Vector3d inward = Vector3d(-0.3, 0.5, -0.8).normalized();
+  const Vector3d from = centre - 2 * radius * inward;
+  for (const BoundingVolumeHierarchy& tree : trees) {
+    for (double length : {1e14, 1e16}) {
+      const Vector3d to = from + length * inward;
+      const BruteHit expected = brute_first_hit(mesh, from, to - from, 1);
+      const SurfaceHit hit = tree.first_hit_segment(from, to);
+      ASSERT_TRUE(expected.hit);
+      ASSERT_TRUE(hit.hit) << "to " << length << " m";
+      EXPECT_EQ(hit.triangle, expected.triangle) << "to " << length << " m";
     }
   }
 }

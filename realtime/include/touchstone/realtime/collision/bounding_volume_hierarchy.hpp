@@ -1,8 +1,9 @@
 #pragma once
 /// @file
 /// Bounding-volume hierarchy over the triangles of a closed surface (paper §3):
-/// an OBB tree as in H-COLLIDE / OBBTree (default) or an AABB tree for comparison, answering the
-/// SurfaceQueries in double precision and counting the overlap tests (the paper's Table 1).
+/// an OBB tree as in H-COLLIDE / OBBTree (the paper's) or an AABB tree with float boxes (the
+/// default: exact answers all the same, fewer overlap tests and less time per query), answering
+/// the SurfaceQueries in double precision and counting the overlap tests (the paper's Table 1).
 /// collision_benchmark measures it against Embree; the tests compare it with brute force.
 
 #include "touchstone/realtime/collision/oriented_box.hpp"
@@ -14,14 +15,15 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace touchstone::realtime::collision {
 
 /// The bounding volume of every node.
 enum class BoundingVolume : std::uint8_t {
-  obb,   ///< oriented box fitted to the node's triangles (Gottschalk's covariance fit)
-  aabb,  ///< axis-aligned box: looser, but a cheaper overlap test
+  obb,   ///< oriented box fitted to the node's triangles (Gottschalk's covariance fit; the paper's)
+  aabb,  ///< axis-aligned box, stored and first tested in float: looser, but a far cheaper test (default)
 };
 
 /// Where a node's triangles are split (along the longest axis of its box, by their centroids).
@@ -31,22 +33,25 @@ enum class SplitRule : std::uint8_t {
 };
 
 struct BvhSettings {
-  BoundingVolume bounding_volume = BoundingVolume::obb;
+  /// AABB by default: on the collision benchmark's 35K-triangle first contacts it makes fewer
+  /// box tests than the OBB tree (15.9 against 18.8 with leaves of 4) in about 60 % of the time.
+  BoundingVolume bounding_volume = BoundingVolume::aabb;
   SplitRule split = SplitRule::median;
   /// A node with at most this many triangles is a leaf. 1 descends to single triangles as the
-  /// paper's Table 1 counts do (the collision study's "paper tree"); 2 is the default because it
-  /// halves the nodes, and at 17K–35K triangles a query's cost is memory traffic
-  /// (collision_benchmark compares the two).
-  int max_leaf_triangles = 2;
+  /// paper's Table 1 counts do (the collision study's "paper tree"); 4 is the default: a short
+  /// move then makes at most the paper's 16 box tests at 35K triangles (2 makes about 19,
+  /// somewhat faster; collision_benchmark compares 1, 2, 4 and 8).
+  int max_leaf_triangles = 4;
   /// 2: a binary tree (OBBTree, H-COLLIDE; the paper's overlap counts). 4: the binary tree with
   /// every other level collapsed, so a node tests its up to 4 grandchildren's boxes at once —
   /// half the levels on a query's path, the same boxes (default: faster).
   int children_per_node = 4;
   /// H-COLLIDE's uniform grid over the hierarchy (Gregory et al. 1999), cells of this many mean
   /// triangle edge lengths; 0 disables it. A segment or ray that moves at most half a cell
-  /// along each axis (a tool-tip move in one cycle) starts its traversal at the deepest node
-  /// holding every triangle within that reach of its start's cell, not at the root; a cell with
-  /// no triangle within reach answers "no hit" without any test.
+  /// along each axis (a tool-tip move in one cycle) starts its traversal not at the root but at
+  /// its start cell's cover node: the boxes of the deepest (at most W) parts of the tree that
+  /// together hold every triangle within that reach of the cell. A cell with no triangle within
+  /// reach answers "no hit" without any test.
   double entry_grid_cell = 2;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -79,8 +84,8 @@ struct BvhStats {
 ///   query that enters k inner nodes makes 1 + 2k box tests, so a single root-to-leaf path
 ///   through a tree of depth D (D − 1 inner levels) makes 2D − 1. A segment or ray that uses
 ///   the entry grid makes no root test: the grid lookup (an index computation, no overlap test)
-///   is not counted, and a move in an empty cell costs no test at all. closest_point() starts
-///   with the root's children.
+///   is not counted, the cover node's boxes are (one per part), and a move in an empty cell
+///   costs no test at all. closest_point() starts with the root's children.
 /// - triangle_tests: one per triangle of a leaf whose box passed (segment–triangle or
 ///   point–triangle, including triangles the point–plane bound then skips).
 class BoundingVolumeHierarchy final : public SurfaceQueries {
@@ -118,8 +123,9 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   /// from its children (O(n)), an OBB with its axes kept and its extents fitted to its own
   /// triangles' corners (O(n log n): enclosing the children's boxes instead would loosen the
   /// boxes level by level). Normals and the entry grid are recomputed (same cell size; larger
-  /// cells if the deformed surface needs more cells than were allocated). Allocation-free. The
-  /// tree's quality degrades with large deformations (rebuild then). Throws
+  /// cells if the deformed surface needs more cells than were allocated); the grid's cover
+  /// nodes are rebuilt, which allocates (the boxes and nodes do not). The tree's quality
+  /// degrades with large deformations (rebuild then). Throws
   /// std::invalid_argument on a size mismatch or a non-finite coordinate (the tree is
   /// unchanged then).
   void refit(const std::vector<Eigen::Vector3d>& deformed_vertices);
@@ -174,9 +180,20 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
     double cell_m = 0;   ///< edge [m]; 0: no grid
     double reach_m = 0;  ///< cell_m / 2 [m]
     Eigen::Vector3i dims = Eigen::Vector3i::Zero();
-    std::vector<std::int32_t> entry;  ///< per cell: the node to start at; −1: nothing within reach
+    /// Per cell: −1, nothing within reach; −2 − i, start at cover node i; otherwise the tree node
+    /// to start at (a cell whose triangles no W subtrees below their common ancestor cover).
+    std::vector<std::int32_t> entry;
     std::vector<std::int32_t> lowest, highest;  ///< per cell: the slots within reach (build scratch)
     int occupied = 0;
+    /// Cover nodes, of the tree's node type (the other three stay empty): the boxes of up to W
+    /// parts of the binary tree (a node, or half of a 4-wide node's lanes, whose node then
+    /// follows the tree's nodes as a copy with the other lanes masked) that together hold
+    /// every triangle within a cell's reach, as deep as W parts allow. Cells with the same
+    /// cover share one.
+    std::vector<ObbNode<2>> obb2;
+    std::vector<ObbNode<4>> obb4;
+    std::vector<AabbNode<2>> aabb2;
+    std::vector<AabbNode<4>> aabb4;
   };
   struct Traversal;  // the query algorithms, templated on the node type and on counting
   friend struct Traversal;
@@ -192,8 +209,29 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   template <class Node>
   void refit_nodes();
   void update_entry_grid();
+  /// The grid's cover nodes of type Node (Grid: EntryGrid, const or not).
+  template <class Node, class Grid>
+  static auto& cover_nodes(Grid& grid) {
+    if constexpr (std::is_same_v<Node, ObbNode<2>>) {
+      return grid.obb2;
+    } else if constexpr (std::is_same_v<Node, ObbNode<4>>) {
+      return grid.obb4;
+    } else if constexpr (std::is_same_v<Node, AabbNode<2>>) {
+      return grid.aabb2;
+    } else {
+      return grid.aabb4;
+    }
+  }
   template <class Node>
   int entry_node(int lowest, int highest);
+  struct CoverScratch;  // the lookups the cover nodes are built with
+  /// The grid entry of a cell (EntryGrid::entry) from its slots within reach and its box
+  /// widened by the reach, [lower, upper] [m].
+  template <class Node>
+  int entry_cover(int lowest, int highest, const Eigen::Vector3d& lower, const Eigen::Vector3d& upper,
+                  CoverScratch& scratch);
+  template <class Node>
+  void truncate_to_tree();  ///< drops the masked node copies the entry grid appended
 
   BvhSettings settings_;
   std::vector<Eigen::Vector3d> vertices_;
@@ -212,6 +250,7 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   std::vector<int> vertex_corners_;            ///< 3 · slot + k for each corner k of each slot
   EntryGrid grid_;
   double margin_ = 0;  ///< boxes are widened by this [m] so that rounding never prunes a hit
+  std::size_t tree_node_slots_ = 0;  ///< the tree's nodes; the entry grid's masked copies follow
   int depth_ = 0;
   int binary_depth_ = 0;
   int node_count_ = 0;
