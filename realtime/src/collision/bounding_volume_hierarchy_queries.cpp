@@ -1,6 +1,7 @@
 // The bounding-volume hierarchy's queries: first hit of a segment or ray, closest point and
 // inside/outside, each a traversal of the nodes bounding_volume_hierarchy.cpp builds, counting
-// its box and triangle tests (the paper's Table 1).
+// its box and triangle tests (the paper's Table 1). One file: the traversals share the box
+// tests (double, and float for AABB nodes), the watertight triangle test and the counting.
 #include "touchstone/realtime/collision/bounding_volume_hierarchy.hpp"
 
 #include "touchstone/geometry/closest_point_on_triangle.hpp"

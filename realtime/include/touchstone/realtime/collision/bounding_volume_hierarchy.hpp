@@ -204,8 +204,19 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   /// corner k); not normalised.
   Eigen::Vector3d pseudo_normal(int slot, int feature) const noexcept;
   void refit_boxes();
+  /// The tree's node vector of type Node (the other three are empty).
   template <class Node>
-  std::vector<Node>& nodes();
+  std::vector<Node>& nodes() {
+    if constexpr (std::is_same_v<Node, ObbNode<2>>) {
+      return obb2_;
+    } else if constexpr (std::is_same_v<Node, ObbNode<4>>) {
+      return obb4_;
+    } else if constexpr (std::is_same_v<Node, AabbNode<2>>) {
+      return aabb2_;
+    } else {
+      return aabb4_;
+    }
+  }
   template <class Node>
   void refit_nodes();
   void update_entry_grid();
