@@ -141,6 +141,8 @@ class AtlasReader {
     s.relative_error = non_negative(value, where, "relative_error");
     const double dofs = non_negative(value, where, "dofs");
     if (dofs != std::floor(dofs)) fail(child(where, "dofs"), "is not a whole number");
+    // 2⁵³: beyond it a double no longer counts in ones (and far beyond it a size_t overflows).
+    if (dofs > 9007199254740992.0) fail(child(where, "dofs"), "= " + text_of(dofs) + " is too large");
     s.dofs = static_cast<std::size_t>(dofs);
     s.seconds = non_negative(value, where, "seconds");
     return s;

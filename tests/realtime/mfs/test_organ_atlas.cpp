@@ -185,6 +185,9 @@ TEST(OrganAtlasFile, EveryErrorNamesTheFileAndTheKey) {
       {"not_unit", [](nlohmann::json& d) { d["samples"][0]["direction"] = {0.0, 0.0, -2.0}; },
        "samples[0].direction: has length 2"},
       {"bad_version", [](nlohmann::json& d) { d["version"] = 7; }, "version: = 7"},
+      // A fuzz finding: a whole number beyond what a size_t holds was converted to one.
+      {"huge_dofs", [](nlohmann::json& d) { d["samples"][0]["dofs"] = 3.17111e128; },
+       "samples[0].dofs: = 3.17111e+128 is too large"},
   };
   for (const auto& c : cases) {
     const std::string message = read_error(c.name, c.edit);
