@@ -33,14 +33,14 @@ enum class SplitRule : std::uint8_t {
 };
 
 struct BvhSettings {
-  /// AABB by default: on the collision benchmark's 35K-triangle first contacts it makes fewer
-  /// box tests than the OBB tree (15.9 against 18.8 with leaves of 4) in about 60 % of the time.
+  /// AABB by default: on short first-contact moves it makes fewer box tests than the OBB tree,
+  /// each cheaper (collision_benchmark compares them; the README gives the figures).
   BoundingVolume bounding_volume = BoundingVolume::aabb;
   SplitRule split = SplitRule::median;
   /// A node with at most this many triangles is a leaf. 1 descends to single triangles as the
-  /// paper's Table 1 counts do (the collision study's "paper tree"); 4 is the default: a short
-  /// move then makes at most the paper's 16 box tests at 35K triangles (2 makes about 19,
-  /// somewhat faster; collision_benchmark compares 1, 2, 4 and 8).
+  /// paper's Table 1 counts do (the collision study's "paper tree"); 4 is the default: fewer box
+  /// tests per short move than 2, for a few more triangle tests (collision_benchmark compares
+  /// 1, 2, 4 and 8).
   int max_leaf_triangles = 4;
   /// 2: a binary tree (OBBTree, H-COLLIDE; the paper's overlap counts). 4: the binary tree with
   /// every other level collapsed, so a node tests its up to 4 grandchildren's boxes at once —
