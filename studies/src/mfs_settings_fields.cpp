@@ -102,6 +102,9 @@ std::vector<Field> make_fields() {
                       [](auto& s) -> auto& { return s.enriched.cut_azimuth_points; }));
   f.push_back(integer({"enriched", "cut_multiplier_degree", "", "polynomial degree of the cut's multipliers (-1: from N)"},
                       [](auto& s) -> auto& { return s.enriched.cut_multiplier_degree; }));
+  f.push_back(integer({"enriched", "bonded_patch_dome_from_nodes", "nodes",
+                       "a bonded patch also holds its face's dome (T2 of the normal component) from this many nodes"},
+                      [](auto& s) -> auto& { return s.enriched.bonded_patch_dome_from_nodes; }));
 
   f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,
                      [](auto& s) -> auto& { return s.sprinkling.layout; }));

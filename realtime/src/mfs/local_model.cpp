@@ -391,7 +391,7 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
     // normal, not along the tool.
     ToolContact along_patch = model.contact;
     along_patch.direction = frame.axes.col(2);
-    // The atlas holds the punch translations; a bonded tool's radial shear mode takes the
+    // The atlas holds the punch translations; a bonded tool's radial mode takes the
     // half-space's exterior terms (build_enriched_model).
     const int modes = translation_mode_count(enrichment_modes(model.contact, frame));
     std::string why_not = "no organ atlas was given";

@@ -1,5 +1,7 @@
 #include "touchstone/realtime/mfs/punch_field.hpp"
 
+#include "punch_superposition.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -12,19 +14,17 @@ namespace {
 constexpr double pi = 3.14159265358979323846;
 using Complex = std::complex<double>;
 
-/// The complex helpers of the punch solutions at (r, z): s = z − i a, q = −i √(−(r² + s²)),
-/// w = s + q, χ = −arg w (principal branches).
-struct Helpers {
-  Complex s, q, w;
-  double chi;
-  Helpers(double r, double z, double a) : s(z, -a) {
-    q = Complex(0, -1) * std::sqrt(-(r * r + s * s));
-    w = s + q;
-    chi = -std::arg(w);
-  }
-};
+using Helpers = detail::PunchHelpers;
 
-/// Sneddon's frictionless punch per unit depth, in the punch frame (local coordinates).
+}  // namespace
+
+namespace detail {
+
+Eigen::Vector3d admissible(Eigen::Vector3d p, double a) {
+  if (std::hypot(p.x(), p.y()) >= a) p.z() = std::max(p.z(), 1e-13 * a);
+  return p;
+}
+
 PunchFieldSample sneddon_local(const Eigen::Vector3d& p, double a, const geometry::Material& material) {
   const double nu = material.poisson_ratio, G = material.shear_modulus_Pa();
   const double r = std::hypot(p.x(), p.y()), z = p.z();
@@ -63,6 +63,13 @@ PunchFieldSample sneddon_local(const Eigen::Vector3d& p, double a, const geometr
   t(1, 2) = t(2, 1) = srz * sn;
   return out;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::admissible;
+using detail::sneddon_local;
 
 /// The stuck punch moved by a unit displacement along local x (force Q = 8Ga/(2 − ν)):
 /// the displacement only, in local coordinates. Needs r > 0.
@@ -118,7 +125,8 @@ Eigen::Vector3d tangential_displacement(const Eigen::Vector3d& p, double a, doub
 ///   φ₁ = −(a²/3) [arccot ξ + P₂(η) Q̃₂(ξ)],  f = ∂φ₁/∂z = a η (1 − ξ arccot ξ),
 /// so f = √(a² − r²) on the disk and 0 beyond it. Under the disk u_r = (π/4) r before the
 /// scaling to a unit rim displacement: the field carries the uniform radial strain of the patch
-/// that the frictionless field lets slip and a bonded punch holds.
+/// that the frictionless field lets slip and a bonded punch holds. Its face bulges by
+/// u_z = −(1 − 2ν)/(2(1 − ν)) f; punch_field adds the dome that flattens it.
 Eigen::Vector3d radial_displacement(const Eigen::Vector3d& p, double a, double nu) {
   const double r = std::hypot(p.x(), p.y()), z = p.z();
   const Helpers h(r, z, a);
@@ -139,6 +147,10 @@ Eigen::Vector3d radial_displacement(const Eigen::Vector3d& p, double a, double n
   const double c = r > 0 ? p.x() / r : 1.0, sn = r > 0 ? p.y() / r : 0.0;
   return scale * Eigen::Vector3d(ur * c, ur * sn, uz);
 }
+
+/// The dome's weight in the radial mode: the shear mode's u_z under the disk is
+/// −k √(1 − r²/a²) per unit rim displacement.
+double radial_mode_dome_weight(double nu) { return 2 * (1 - 2 * nu) / (pi * (1 - nu)); }
 
 /// The frictionless punch tilted about local y per metre of rim displacement (u_z = x/a on the
 /// disk), in the punch frame: Boussinesq's shear-free solution u_h = −K[(1 − 2ν)∇_hΦ + z∇_hχ],
@@ -177,12 +189,6 @@ Eigen::Vector3d tilt_displacement_off_axis(const Eigen::Vector3d& p, double a, d
 
 Eigen::Vector3d tilt_displacement(const Eigen::Vector3d& p, double a, double nu) {
   return continued_to_the_axis(p, a, [&](const Eigen::Vector3d& y) { return tilt_displacement_off_axis(y, a, nu); });
-}
-
-/// Where a point may be evaluated: never above the rim plane outside the rim (the branch cut).
-Eigen::Vector3d admissible(Eigen::Vector3d p, double a) {
-  if (std::hypot(p.x(), p.y()) >= a) p.z() = std::max(p.z(), 1e-13 * a);
-  return p;
 }
 
 /// A mode given by its displacement alone, with its stress from a second-order finite-difference
@@ -243,9 +249,16 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
     case PunchMode::tangential_2:
       sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return tangential_displacement(y, a, nu); });
       break;
-    case PunchMode::radial:
+    case PunchMode::radial: {
+      // The shear mode plus the dome that flattens its face (its u_z under the disk is
+      // −k √(1 − r²/a²)): a bonded face stays flat.
       sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return radial_displacement(y, a, nu); });
+      const PunchFieldSample dome = detail::dome_local(local, a, material);
+      const double k = radial_mode_dome_weight(nu);
+      sample.displacement += k * dome.displacement;
+      sample.stress_Pa_per_m += k * dome.stress_Pa_per_m;
       break;
+    }
     case PunchMode::tilt_1:
     case PunchMode::tilt_2:
       sample = with_finite_difference_stress(local, a, material, [&](const Eigen::Vector3d& y) { return tilt_displacement(y, a, nu); });
@@ -263,7 +276,12 @@ double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const
     case PunchMode::normal: return 4 * G * radius_m / (1 - nu);
     case PunchMode::tangential_1:
     case PunchMode::tangential_2: return 8 * G * radius_m / (2 - nu);
-    case PunchMode::radial: return 16 * G * radius_m / (3 * (1 - nu));
+    case PunchMode::radial: {
+      // ⟨R + kD, R + kD⟩ = E_R + 2k⟨R, D⟩ + k²E_D with ⟨R, D⟩ = −k E_D (R's u_z under the disk is
+      // −k times D's, and D's traction there is normal).
+      const double k = radial_mode_dome_weight(nu);
+      return 16 * G * radius_m / (3 * (1 - nu)) - k * k * 4 * G * radius_m * (1.0 / 3 + pi * pi / 36) / (1 - nu);
+    }
     case PunchMode::tilt_1:
     case PunchMode::tilt_2: return 8 * G * radius_m / (3 * (1 - nu));
   }

@@ -79,6 +79,9 @@ struct EnrichedSettings {
   /// Degree of the polynomial multipliers on the cut (per component, plus σ(ψ_m)n); −1 picks it
   /// from N (cut_multiplier_degree()).
   int cut_multiplier_degree = -1;
+  /// A bonded patch holds the normal displacement's even Chebyshev mode T₂(r/a)/√(a² − r²) too
+  /// (a dome of the face) from this many nodes on; fewer nodes cannot hold it without locking.
+  int bonded_patch_dome_from_nodes = 50;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -117,7 +120,7 @@ struct EnrichedModel {
 
 /// The enrichment fields for a contact: the normal mode alone for a frictionless tool pushing
 /// along the patch normal (within 1°); otherwise the three translations and the two tilts, and
-/// for a bonded tool the radial shear mode too.
+/// for a bonded tool the radial mode (shear with a flat face) too.
 std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame);
 
 /// How many of `modes` are punch translations (they come first; an organ atlas holds their

@@ -9,11 +9,14 @@
 /// Tangential modes (stuck punch, Mindlin/Johnson): the punch moved by Δ along one of its face's
 /// axes with force Q = 8 G a Δ / (2 − ν); the ≈ 1 % normal–tangential coupling at ν = 0.45 is
 /// neglected (exact at ν = 0.5).
-/// Radial shear mode: the self-equilibrated surface shear τ_r = 4G/(πa(1 − ν)) · r / √(a² − r²)
-/// on the disk, no normal traction anywhere. Under the disk u_r = r / a (1 at the rim) and
-/// u_z = −2(1 − 2ν)/(π(1 − ν)) √(1 − r²/a²); its energy ∮ u·t = 16 G a / (3(1 − ν)). Added to the
-/// normal mode it lets the bonded punch hold the radial slip that Sneddon's frictionless field has
-/// under the disk, u_r = −(1 − 2ν)/(π(1 − ν)) (a − √(a² − r²)) / r per metre of depth.
+/// Radial mode (bonded face): the self-equilibrated surface shear τ_r = 4G/(πa(1 − ν)) · r / √(a² − r²)
+/// on the disk, whose face bulges by −k √(1 − r²/a²), k = 2(1 − 2ν)/(π(1 − ν)), plus k times the
+/// frictionless punch whose face takes the dome √(1 − r²/a²), which flattens it. Under the disk
+/// u_z = 0 and u_r = r / a (1 at the rim) plus the dome's own slip (a few per cent of it). Its
+/// energy ∮ u·t is 16Ga/(3(1 − ν)) − k² 4Ga(1/3 + π²/36)/(1 − ν); its load has the normal
+/// resultant 2kGa/(1 − ν). Added to the normal mode it lets a bonded punch hold the radial slip
+/// that Sneddon's frictionless field has under the disk, u_r = −(1 − 2ν)/(π(1 − ν)) (a − √(a² − r²)) / r
+/// per metre of depth, without doming its face.
 /// Tilt modes (frictionless): the punch face turned so that u₃ = x₁/a (or x₂/a) on the disk, the
 /// pressure ∝ x₁/√(a² − r²); no resultant, moment 8Ga²/(3(1 − ν)) per unit rim displacement,
 /// energy 8Ga/(3(1 − ν)). They hold the tilt of the patch that the tangential modes' neglected
@@ -66,7 +69,7 @@ PunchFieldSample punch_field(PunchMode mode, const PunchFrame& frame, double rad
 
 /// The half-space tool stiffness of each mode [N/m]: 4 G a / (1 − ν) (normal), 8 G a / (2 − ν)
 /// (tangential), and for the radial and tilt modes their energy per unit rim displacement squared,
-/// 16 G a / (3(1 − ν)) and 8 G a / (3(1 − ν)).
+/// 16 G a / (3(1 − ν)) − k² 4Ga(1/3 + π²/36)/(1 − ν) (k above) and 8 G a / (3(1 − ν)).
 double punch_half_space_stiffness_N_per_m(PunchMode mode, double radius_m, const geometry::Material& material) noexcept;
 
 }  // namespace touchstone::realtime::mfs
