@@ -24,10 +24,17 @@ namespace {
 constexpr double pi = 3.14159265358979323846;
 constexpr double body_radius_m = 0.05, a = 0.0025, l = 0.0125;
 
+/// A file in this test program's scratch folder, which is removed when the program exits.
 std::string scratch(const std::string& name) {
-  const auto directory = std::filesystem::path(::testing::TempDir()) / ("organ_atlas_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(directory);
-  return (directory / name).string();
+  static const struct Folder {
+    std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / ("organ_atlas_" + std::to_string(::getpid()));
+    Folder() { std::filesystem::create_directories(path); }
+    ~Folder() {
+      std::error_code ignored;
+      std::filesystem::remove_all(path, ignored);
+    }
+  } folder;
+  return (folder.path / name).string();
 }
 
 /// A sample on the hemisphere at polar angle θ (meridian y = 0), tool along the inward normal,
