@@ -259,9 +259,10 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
   }
   frame = axes;
   frame.origin = f.centre + rim_axial * f.push;
-  // r = a sin t absorbs the rim's (a² − r²)^(−½); a bonded tool's radial mode adds a
-  // log-singular pressure (its dome), which t = (π/2)(1 − (1 − x)²) grades toward as well.
-  const bool graded_twice = contact.condition == geometry::ContactCondition::bonded;
+  // r = a sin t absorbs the rim's (a² − r²)^(−½); the radial mode adds a log-singular pressure
+  // (its dome), which t = (π/2)(1 − (1 − x)²) grades toward as well.
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  const bool graded_twice = std::find(modes.begin(), modes.end(), PunchMode::radial) != modes.end();
   for (int i = 0; i < settings.patch_radial_points; ++i) {
     const double t = graded_twice ? 0.5 * pi * (1 - (1 - x[i]) * (1 - x[i])) : 0.5 * pi * x[i], r = a * std::sin(t);
     const double dt_dx = graded_twice ? pi * (1 - x[i]) : 0.5 * pi;
@@ -485,7 +486,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   else if (settings.exterior == ExteriorCondition::body_aware) {
     // The organ's exterior for the punch translations; the radial and tilt modes couple with it
     // through the half-space's terms (the tilt modes carry no resultant force, the radial mode's
-    // dome a small normal one: about 3 % of the tool force on B3 at ν = 0.30).
+    // dome a small normal one; docs/enriched_model.md, The atlas and the extra modes).
     if (translations < m)
       model.exterior_stiffness_N_per_m = half_space_exterior_stiffness(model.modes, frame, a, material, quad.cut);
     model.exterior_stiffness_N_per_m.topLeftCorner(translations, translations) = *exterior_stiffness_N_per_m;
@@ -517,8 +518,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   };
   const int components = bonded ? 3 : 1;
   // The dome: with enough nodes the MLS part of a bonded patch bulges its face under the mean
-  // condition alone (on B3 at ν = 0.30, N = 90: 4.7 µm at the centre for δ = 250 µm); few nodes
-  // lock under it (+0.8 % in displacement at N = 26).
+  // condition alone; few nodes lock under the extra condition (docs/enriched_model.md, The dome
+  // that flattens it).
   const bool hold_dome = bonded && n_nodes >= settings.bonded_patch_dome_from_nodes;
   const Eigen::Vector3d patch_normal = frame.axes.col(2);
   for (int k = 0; k < patch_functions + (hold_dome ? 1 : 0); ++k)

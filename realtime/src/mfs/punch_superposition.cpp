@@ -65,9 +65,8 @@ void integrate_over_radii(const Eigen::Vector3d& p, double a, Add add) {
 PunchFieldSample dome_local(const Eigen::Vector3d& p, double a, const geometry::Material& material) {
   // Over the disk but above the rim plane (a patch that bulges toward the tool) the punches
   // narrower than r have no continuation consistent with the wider ones (every path down crosses
-  // some rim): the field is extrapolated linearly in z from the plane and the mirror point below.
-  // Evaluating there at the plane instead leaves the tool and cut forces 0.3 % apart on B3;
-  // a quadratic extrapolation moves the force by 0.01 %.
+  // some rim): the field is extrapolated linearly in z from the plane and the mirror point below
+  // (what the other choices cost is in docs/enriched_model.md, The dome that flattens it).
   if (p.z() < 0 && std::hypot(p.x(), p.y()) < a) {
     const PunchFieldSample on_plane = dome_local({p.x(), p.y(), 0.0}, a, material);
     const PunchFieldSample mirror = dome_local({p.x(), p.y(), -p.z()}, a, material);

@@ -160,7 +160,8 @@ TEST(PunchField, RadialModeShearsTheDiskAndKeepsItFlat) {
 
 // A bonded patch on a convex organ bulges above the rim plane (z < 0 over the disk), where the
 // dome is extrapolated from the plane and the shear part continued through the disk: the mode
-// stays continuous across the plane and changes above it as fast as below it.
+// stays continuous across the plane and smooth through it, its second difference across the
+// plane shrinking as h² (a field frozen at its plane value above it would leave an O(h) kink).
 TEST(PunchField, RadialModeContinuesAboveTheDisk) {
   const geometry::Material material = unit_material();
   for (const double r : {0.1, 0.5, 0.9}) {
@@ -169,11 +170,12 @@ TEST(PunchField, RadialModeContinuesAboveTheDisk) {
     const PunchFieldSample u = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, above);
     EXPECT_LT((b.displacement - u.displacement).norm(), 1e-5) << "r = " << r;
     EXPECT_LT((b.stress_Pa_per_m - u.stress_Pa_per_m).norm(), 1e-4 * b.stress_Pa_per_m.norm()) << "r = " << r;
-    const double sag = 0.025;  // B3's cap: a/40 at the centre
-    const Eigen::Vector3d on = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r, 0, 1e-12}).displacement;
-    const Eigen::Vector3d up = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r, 0, -sag}).displacement;
-    const Eigen::Vector3d down = punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r, 0, sag}).displacement;
-    EXPECT_LT((up - on).norm(), 2 * (down - on).norm()) << "r = " << r;
+    const auto at = [&](double z) { return punch_field(PunchMode::radial, PunchFrame{}, 1.0, material, {r, 0, z}).displacement; };
+    const auto second_difference = [&](double h) { return (at(-h) + at(h) - 2 * at(1e-12)).norm(); };
+    // B3's cap rises a/40 above the rim plane at its centre; at half and a quarter of that the
+    // ratio is 3.98–4.00, and 2.6–3.6 with the field frozen at its plane value above the disk.
+    const double h = 0.0125;
+    EXPECT_GT(second_difference(h) / second_difference(h / 2), 3.8) << "r = " << r;
   }
 }
 
