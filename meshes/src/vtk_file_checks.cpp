@@ -271,32 +271,12 @@ class CompressedBlockCounts {
  private:
   void check(std::size_t from, std::size_t stop, bool base64, const std::string& what) const {
     while (from < stop && std::isspace(static_cast<unsigned char>(text_[from]))) ++from;
-    // The first three header words: block count, block size, last block size (3 whole words
-    // are 12 or 24 bytes, a whole number of base64 quanta).
-    unsigned char bytes[24] = {};
-    std::size_t words = 0;
-    if (base64) {
-      // 3 words are 3 · word_ bytes, 4 · word_ characters; fewer when the data holds fewer.
-      const std::size_t characters = std::min<std::size_t>((stop - from) / 4 * 4, 4 * word_);
-      const std::size_t decoded = vtkBase64Utilities::DecodeSafely(
-          reinterpret_cast<const unsigned char*>(text_.data() + from), characters, bytes, sizeof bytes);
-      words = std::min<std::size_t>(3, decoded / word_);
-    } else {
-      words = std::min<std::size_t>(3, (stop - from) / word_);
-      std::memcpy(bytes, text_.data() + from, words * word_);
-    }
-    if (words == 0) return;
-    const auto header_word = [&](std::size_t w) {
-      unsigned long long value = 0;
-      for (std::size_t b = 0; b < word_; ++b) {
-        const std::size_t byte = w * word_ + (big_endian_ ? b : word_ - 1 - b);
-        value = (value << 8) | bytes[byte];
-      }
-      return value;
-    };
-    const unsigned long long count = header_word(0);
-    // Every block's compressed size is a header word; base64 stores 3 bytes in 4 characters.
+    // Every header word is at least word_ bytes of data; base64 stores 3 bytes in 4 characters.
     const long double available = static_cast<long double>(stop - from) * (base64 ? 0.75L : 1.0L);
+    std::vector<unsigned char> bytes = header_bytes(from, stop, base64, 3);
+    const std::size_t words = bytes.size() / word_;
+    if (words == 0) return;
+    const unsigned long long count = header_word(bytes, 0);
     if (static_cast<long double>(count) * static_cast<long double>(word_) > available) {
       fail(path_, "corrupt file: " + what + " declares " + std::to_string(count) +
                       " compressed blocks, more block sizes than its data holds");
@@ -305,7 +285,7 @@ class CompressedBlockCounts {
     // VTK takes the data's size as count · block size, with the last block's size in place of a
     // full one: no blocks and a last block underflow to an enormous size it then reads block 0
     // of (a null dereference), and blocks of size 0 divide by zero.
-    const unsigned long long block_size = header_word(1), last_block_size = header_word(2);
+    const unsigned long long block_size = header_word(bytes, 1), last_block_size = header_word(bytes, 2);
     if (count == 0 && last_block_size != 0) {
       fail(path_, "corrupt file: " + what + " declares no compressed blocks but a last block of " +
                       std::to_string(last_block_size) + " bytes");
@@ -314,6 +294,48 @@ class CompressedBlockCounts {
       fail(path_, "corrupt file: " + what + " declares compressed blocks of " + std::to_string(block_size) +
                       " bytes with a last block of " + std::to_string(last_block_size) + " bytes");
     }
+    // VTK allocates a block's uncompressed size to decompress it into, and its compressed size to
+    // read it into, before it reads a byte of it.
+    const long double uncompressed_limit = max_xml_bytes_per_file_byte * static_cast<long double>(text_.size());
+    if (count > 0 && static_cast<long double>(block_size) > uncompressed_limit) {
+      fail(path_, "corrupt file: " + what + " declares compressed blocks of " + std::to_string(block_size) +
+                      " bytes uncompressed, more than the file's " + std::to_string(text_.size()) + " bytes can hold");
+    }
+    bytes = header_bytes(from, stop, base64, 3 + static_cast<std::size_t>(count));
+    for (std::size_t block = 0; block < count && 3 + block < bytes.size() / word_; ++block) {
+      const unsigned long long compressed = header_word(bytes, 3 + block);
+      if (static_cast<long double>(compressed) > available) {
+        fail(path_, "corrupt file: " + what + " declares a compressed block " + std::to_string(block) + " of " +
+                        std::to_string(compressed) + " bytes, more than its data holds");
+      }
+    }
+  }
+
+  /// The first `words` header words (fewer when the data holds fewer), as bytes.
+  std::vector<unsigned char> header_bytes(std::size_t from, std::size_t stop, bool base64, std::size_t words) const {
+    std::vector<unsigned char> bytes(words * word_ + 3);
+    std::size_t decoded = 0;
+    if (base64) {
+      // The header is encoded on its own: whole 4-character quanta, 3 bytes each.
+      const std::size_t wanted = (words * word_ + 2) / 3 * 4;
+      const std::size_t characters = std::min((stop - from) / 4 * 4, wanted);
+      decoded = vtkBase64Utilities::DecodeSafely(reinterpret_cast<const unsigned char*>(text_.data() + from), characters,
+                                                 bytes.data(), bytes.size());
+    } else {
+      decoded = std::min(words * word_, stop - from);
+      std::memcpy(bytes.data(), text_.data() + from, decoded);
+    }
+    bytes.resize(std::min(decoded, words * word_) / word_ * word_);
+    return bytes;
+  }
+
+  unsigned long long header_word(const std::vector<unsigned char>& bytes, std::size_t w) const {
+    unsigned long long value = 0;
+    for (std::size_t b = 0; b < word_; ++b) {
+      const std::size_t byte = w * word_ + (big_endian_ ? b : word_ - 1 - b);
+      value = (value << 8) | bytes[byte];
+    }
+    return value;
   }
 
   const std::string& path_;

@@ -18,7 +18,7 @@ void check_binary_stl_size(const std::string& path, std::uintmax_t size);
 /// Legacy VTK of `size` bytes: the version line, every cell list, the point count.
 void check_legacy_declared_sizes(const std::string& path, std::uintmax_t size);
 /// VTK XML PolyData of `size` bytes: the pieces' counts, the arrays' sizes, compressed arrays'
-/// block counts. (The offsets that size the connectivity are checked as VTK decodes them, by the
+/// block counts and block sizes. (The offsets that size the connectivity are checked as VTK decodes them, by the
 /// reader in surface_mesh_io.cpp.)
 void check_xml_declared_sizes(const std::string& path, std::uintmax_t size);
 

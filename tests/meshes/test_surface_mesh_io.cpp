@@ -702,6 +702,18 @@ TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
       const std::string empty_blocks = with_words(1, 0, "empty_blocks.vtp");
       expect_invalid_argument([&] { read_surface_mesh(empty_blocks); },
                               {empty_blocks, "declares compressed blocks of 0 bytes"});
+      // VTK allocates a block's uncompressed and compressed sizes before reading it: 6 GB
+      // claimed by a 2 kB file (a mutation the fuzzer found) is refused, either way.
+      if (layout.header64) {
+        const std::string huge_block = with_words(1, 6383763632ULL, "huge_block.vtp");
+        expect_invalid_argument([&] { read_surface_mesh(huge_block); },
+                                {huge_block, "declares compressed blocks of 6383763632 bytes uncompressed"});
+        std::string changed = original;
+        for (int b = 0; b < 8; ++b) changed[first + 24 + b] = static_cast<char>(6383763632ULL >> (8 * b) & 0xff);
+        const std::string huge_compressed = directory.file("huge_compressed.vtp", changed);
+        expect_invalid_argument([&] { read_surface_mesh(huge_compressed); },
+                                {huge_compressed, "declares a compressed block 0 of 6383763632 bytes"});
+      }
     }
   }
   // The input CI's fuzz run found, kept in the harness's corpus: a mutation of a compressed
