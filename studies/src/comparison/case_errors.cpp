@@ -49,9 +49,11 @@ json problem_notes(const ComparisonProblem& p) {
     notes.push_back({{"id", "local_model_truncation"},
                      {"text", "the FEM reference solves the whole " +
                                   std::string(p.benchmark == meshes::Benchmark::B1 ? "cylinder B1" : "hemisphere " + meshes::to_string(p.benchmark)) +
-                                  "; each MFS case solves organ ∩ ball(contact, L) with u = 0 on the cut sphere (L = its "
-                                  "series' local radius), so its error against this reference is truncation plus "
-                                  "discretisation (a B3 problem isolates the discretisation)"}});
+                                  "; each MFS case solves organ ∩ ball(contact, L) (L = its series' local radius) with the "
+                                  "rest of the body held on the cut sphere by its series' exterior (body_aware: the organ "
+                                  "atlas's stiffness of the body outside the ball; half_space: a half-space's; clamped: u = 0, "
+                                  "the paper's local domain), so its error against this reference is the exterior's "
+                                  "approximation plus the discretisation (a B3 problem isolates the discretisation)"}});
   // Where the MFS ball reaches the clamped base: B5 near it, B1 with W < L (base z = −W).
   const bool b1 = p.benchmark == meshes::Benchmark::B1;
   if ((b1 || p.benchmark == meshes::Benchmark::B5) && p.ball_reaches_base())

@@ -104,5 +104,37 @@ TEST_F(Targets, AMissedForceTargetSaysByHowMuchAndWhereTheSeriesWouldReachIt) {
   EXPECT_TRUE(find(list, "speedup_at_5_percent")->at("met").is_null());
 }
 
+TEST_F(Targets, TheLocalModelAgainstTheWholeBodyIsMeasuredOnTheWholeBodyProblem) {
+  // B3 alone with the full body's reference: its cases' comparison with the full body is the row.
+  json b3 = mfs_case("MFS-enriched-N34", 34, 0.004, 0.01, 0.004);
+  b3["error_full_domain"] = {{"force_rel", 0.34}};
+  json list = targets(json::array({b3}), json::object(), true, runs);
+  const json* clamped = find(list, "mfs_vs_full_domain:enriched");
+  ASSERT_NE(clamped, nullptr);
+  EXPECT_DOUBLE_EQ(clamped->at("measured").get<double>(), 0.34);
+
+  // With a whole-hemisphere problem (B2) beside it, the row is that problem's own force error
+  // (the model with its exterior), and B3's clamped cut no longer stands in for it.
+  StudyProblem whole = problem;
+  whole.name = "whole";
+  whole.id_prefix = "whole/";
+  whole.problem.benchmark = meshes::Benchmark::B2;
+  ProblemRun w = runs.front();
+  w.sp = &whole;
+  w.reference_part = "whole/reference";
+  runs.push_back(w);
+  json on_body = mfs_case("whole/MFS-enriched-N30", 30, 0.012, 0.02, 0.004);
+  on_body["problem"] = "whole";
+  json worse = mfs_case("whole/MFS-enriched-N45", 45, 0.015, 0.02, 0.005);
+  worse["problem"] = "whole";
+  list = targets(json::array({b3, on_body, worse}), json::object(), true, runs);
+  EXPECT_EQ(find(list, "mfs_vs_full_domain:enriched"), nullptr);
+  const json* full = find(list, "mfs_vs_full_domain:whole/enriched");
+  ASSERT_NE(full, nullptr);
+  EXPECT_DOUBLE_EQ(full->at("measured").get<double>(), 0.012);
+  EXPECT_EQ(full->at("basis"), "whole/MFS-enriched-N30");
+  EXPECT_EQ(full->at("met"), true);
+}
+
 }  // namespace
 }  // namespace touchstone::studies::comparison
