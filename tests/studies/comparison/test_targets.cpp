@@ -104,6 +104,23 @@ TEST_F(Targets, AMissedForceTargetSaysByHowMuchAndWhereTheSeriesWouldReachIt) {
   EXPECT_TRUE(find(list, "speedup_at_5_percent")->at("met").is_null());
 }
 
+TEST_F(Targets, TheSpeedUpAtTheDefaultErrorTakesTheFewestNodesNotTheFastestSample) {
+  // N = 51 ran 0.1 ms faster than N = 34 (noise: single samples of builds that cost about the
+  // same). The basis is N = 34 (0.6 %), which L1 (0.5 %, 10 s) matches: 10 / 0.005 = 2,000x,
+  // missed. Taking the fastest sample would compare N = 51's 0.2 % with L2 and read 20,408x, met.
+  const json cases = json::array({mfs_case("MFS-enriched-N34", 34, 0.006, 0.01, 0.0050),
+                                  mfs_case("MFS-enriched-N51", 51, 0.002, 0.01, 0.0049),
+                                  fem_level("reference/L0", 0, 0.04, 2.0, 1e4),
+                                  fem_level("reference/L1", 1, 0.005, 10.0, 8e4),
+                                  fem_level("reference/L2", 2, 0.001, 100.0, 6e5)});
+  const json list = targets(cases, json::object(), false, runs);
+  const json* own = find(list, "speedup_at_default_error");
+  ASSERT_NE(own, nullptr);
+  EXPECT_EQ(own->at("basis"), "MFS-enriched-N34 vs reference/L1");
+  EXPECT_DOUBLE_EQ(own->at("measured").get<double>(), 10.0 / 0.005);
+  EXPECT_EQ(own->at("met"), false);
+}
+
 TEST_F(Targets, TheLocalModelAgainstTheWholeBodyIsMeasuredOnTheWholeBodyProblem) {
   // B3 alone with the full body's reference: its cases' comparison with the full body is the row.
   json b3 = mfs_case("MFS-enriched-N34", 34, 0.004, 0.01, 0.004);
