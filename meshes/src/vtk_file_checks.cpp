@@ -12,6 +12,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -197,6 +198,12 @@ class LegacyCellLists {
       if (!integer(text, value)) {
         fail(path_, "malformed legacy VTK file: " + list + " declares " + std::to_string(declared) + " values, value " +
                         std::to_string(k + 1) + " is '" + text + "', not an integer");
+      }
+      // VTK reads a 4-byte list (the cell lists before version 5) into ints: a value beyond
+      // them fails its stream, which it closes and then reads on from (a null dereference).
+      if (width == 4 && (value > std::numeric_limits<std::int32_t>::max() || value < std::numeric_limits<std::int32_t>::min())) {
+        fail(path_, "malformed legacy VTK file: " + list + " value " + std::to_string(k + 1) + " is " + text +
+                        ", outside the 32-bit integers VTK reads it as");
       }
       read.push_back(value);
     }

@@ -525,6 +525,11 @@ TEST(SurfaceMeshIo, LegacyCellListsCutShortFailClearly) {
   expect_invalid_argument([&] { read_surface_mesh(word); }, {word, "POLYGONS", "'N10__cxxabiv120__si_class_type_in3'"});
   const std::string cut = directory.file("cut.vtk", header);
   expect_invalid_argument([&] { read_surface_mesh(cut); }, {cut, "POLYGONS declares 32 values", "ends after 28"});
+  // Found by CI's fuzz smoke run: a point id beyond the 32-bit ints VTK reads these lists into
+  // fails its stream the same way.
+  const std::string wide = directory.file("wide.vtk", header + "3 1666666666666666 3 5\n");
+  expect_invalid_argument([&] { read_surface_mesh(wide); },
+                          {wide, "POLYGONS value 30 is 1666666666666666", "outside the 32-bit integers"});
   // The version 5 layout: offsets, then connectivity.
   const std::string v5 =
       "# vtk DataFile Version 5.1\ntriangle\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n0 0 0 1 0 0 0 1 0\n"
