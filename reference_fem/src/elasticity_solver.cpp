@@ -458,23 +458,38 @@ class ElasticitySolver {
   /// Reaction force from the unconstrained residual r = K u − f on the patch dofs, strain
   /// energy, probe values and (optionally) the L2 error. Each cell is owned by one rank, so the
   /// cell-wise sums add up over ranks without double counting.
-  void postprocess() {
-    std::vector<bool> on_patch(dof_handler_.n_dofs(), false);
-    const types::boundary_id patch =
-        problem_.punch ? boundary_id("tool_patch", true) : numbers::invalid_boundary_id;
-    const unsigned int n = fe_.n_dofs_per_cell();
-    std::vector<types::global_dof_index> dofs(n), face_dofs;
-    if (problem_.punch) {
-      for (const auto& cell : dof_handler_.active_cell_iterators()) {
-        if (cell->is_artificial()) continue;
-        for (const auto f : cell->face_indices()) {
-          if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != patch) continue;
-          face_dofs.resize(fe_.n_dofs_per_face(f));
-          cell->face(f)->get_dof_indices(face_dofs);  // not has_support_on_face: see add_punch_constraints
-          for (const auto dof : face_dofs) on_patch[dof] = true;
-        }
+  /// Which dofs belong to the faces of boundary `id` (the faces' own dofs, not
+  /// has_support_on_face: see add_punch_constraints).
+  std::vector<bool> dofs_on_boundary(types::boundary_id id) const {
+    std::vector<bool> on(dof_handler_.n_dofs(), false);
+    std::vector<types::global_dof_index> face_dofs;
+    for (const auto& cell : dof_handler_.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      for (const auto f : cell->face_indices()) {
+        if (!cell->face(f)->at_boundary() || cell->face(f)->boundary_id() != id) continue;
+        face_dofs.resize(fe_.n_dofs_per_face(f));
+        cell->face(f)->get_dof_indices(face_dofs);
+        for (const auto dof : face_dofs) on[dof] = true;
       }
     }
+    return on;
+  }
+
+  void postprocess() {
+    const std::vector<bool> on_patch = problem_.punch ? dofs_on_boundary(boundary_id("tool_patch", true))
+                                                      : std::vector<bool>(dof_handler_.n_dofs(), false);
+    const unsigned int n = fe_.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n);
+
+    // Boundary works: which dofs lie on each boundary, and the support points of a cell's dofs
+    // to evaluate the virtual displacement at.
+    const std::size_t work_count = problem_.boundary_works.size();
+    std::vector<std::vector<bool>> on_work_boundary;
+    for (const BoundaryWork& work : problem_.boundary_works)
+      on_work_boundary.push_back(dofs_on_boundary(boundary_id(work.boundary, true)));
+    std::vector<double> works(work_count, 0.0);
+    FEValues<dim> support_values(mapping_, fe_, Quadrature<dim>(fe_.get_unit_support_points()),
+                                 update_quadrature_points);
 
     FEValues<dim> fe_values(mapping_, fe_, stiffness_quadrature_, update_gradients | update_JxW_values);
     FEValues<dim> load_values(mapping_, fe_, quadrature_,
@@ -496,18 +511,30 @@ class ElasticitySolver {
       matrix.vmult(ku, u);
       energy += 0.5 * (u * ku);
       if (mixed_) cell_pressures_[cell->active_cell_index()] = pressure_row * u;
-      if (!problem_.punch) continue;
+      if (!problem_.punch && work_count == 0) continue;
       if (loaded) {
         load_values.reinit(cell);
         cell_load(cell, load_values, face_values, load);
       }
       cell->get_dof_indices(dofs);
-      for (unsigned int i = 0; i < n; ++i)
-        if (on_patch[dofs[i]])
-          force[fe_.system_to_component_index(i).first] += ku(i) - (loaded ? load(i) : 0.0);
+      if (problem_.punch)
+        for (unsigned int i = 0; i < n; ++i)
+          if (on_patch[dofs[i]])
+            force[fe_.system_to_component_index(i).first] += ku(i) - (loaded ? load(i) : 0.0);
+      if (work_count == 0) continue;
+      support_values.reinit(cell);
+      for (std::size_t w = 0; w < work_count; ++w)
+        for (unsigned int i = 0; i < n; ++i) {
+          if (!on_work_boundary[w][dofs[i]]) continue;
+          const Point<dim>& x = support_values.quadrature_point(i);
+          const Eigen::Vector3d g = problem_.boundary_works[w].field(Eigen::Vector3d(x[0], x[1], x[2]));
+          works[w] += (ku(i) - (loaded ? load(i) : 0.0)) * g[fe_.system_to_component_index(i).first];
+        }
     }
     energy = Utilities::MPI::sum(energy, comm_);
     force = Utilities::MPI::sum(force, comm_);
+    if (work_count > 0) Utilities::MPI::sum(works, comm_, works);
+    result_.boundary_work_J = works;
     result_.energy_J = energy;
     result_.force_N = to_eigen(Point<dim>(force));
     if (problem_.punch) result_.energy_force_N = 2 * energy / problem_.punch->depth_m;

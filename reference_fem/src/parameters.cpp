@@ -34,6 +34,10 @@ void ElasticityProblem::validate() const {
   for (const auto& condition : conditions)
     if (!condition.value)
       throw std::invalid_argument("ElasticityProblem: condition on '" + condition.boundary + "' has no value");
+  for (const auto& work : boundary_works)
+    if (!work.field || work.boundary.empty())
+      throw std::invalid_argument("ElasticityProblem.boundary_works: an entry on '" + work.boundary +
+                                  "' has no boundary name or no field");
   for (const auto& probe : probes)
     if (!probe.allFinite()) throw std::invalid_argument("ElasticityProblem.probes: a probe point is not finite");
 }

@@ -144,14 +144,18 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
   const mfs::EnrichedModel& e = model.enriched;
   const Eigen::Index nodal = 3 * static_cast<Eigen::Index>(model.cloud.size());
   json amplitudes = json::array();
+  const Eigen::Index modes = static_cast<Eigen::Index>(e.modes.size());
   const Eigen::VectorXd per_depth = e.unit_response.bottomRows(e.unit_response.rows() - nodal) * contact.direction.normalized();
-  for (Eigen::Index i = 0; i < per_depth.size(); ++i) amplitudes.push_back(json_number(per_depth[i]));
+  for (Eigen::Index i = 0; i < modes; ++i) amplitudes.push_back(json_number(per_depth[i]));
+  json shift = nullptr;  // the cut's rigid shift along e₃, e₁, e₂ per metre of depth
+  if (e.cut_translations) shift = json::array({json_number(per_depth[modes]), json_number(per_depth[modes + 1]), json_number(per_depth[modes + 2])});
   const Eigen::VectorXd mls = solution.parameters.head(nodal);
   const double mls_energy = 0.5 * mls.dot(e.stiffness.topLeftCorner(nodal, nodal) * mls);
   const double total = 0.5 * solution.parameters.dot(e.stiffness * solution.parameters);
   return {{"exterior_used", model.exterior_used},
           {"exterior_note", model.exterior_note},
           {"amplitudes_per_depth", amplitudes},
+          {"cut_shift_per_depth", shift},
           {"mls_energy_share", json_number(total > 0 ? mls_energy / total : 0.0)},
           {"multipliers", e.multipliers},
           {"mls_evaluations", e.mls_evaluations},

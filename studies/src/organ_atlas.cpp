@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -45,21 +46,33 @@ constexpr std::array<PunchMode, 3> mode_order{{PunchMode::normal, PunchMode::tan
 
 int mode_count(AtlasModes modes) { return modes == AtlasModes::normal ? 1 : 3; }
 
-/// The Dirichlet traces solved for: each diagonal mode alone, then each pair (polarisation).
-std::vector<std::pair<int, int>> trace_combinations(AtlasModes modes) {
-  const int n = mode_count(modes);
-  std::vector<std::pair<int, int>> out;
-  for (int m = 0; m < n; ++m) out.emplace_back(m, m);
-  for (int m = 0; m < n; ++m)
-    for (int k = m + 1; k < n; ++k) out.emplace_back(m, k);
-  return out;
-}
+/// The Dirichlet traces on the cut, per unit amplitude: the punch modes, then the cut's uniform
+/// translations along the frame's e₃, e₁, e₂ (the modes' order).
+struct CutTrace {
+  std::string name;
+  std::function<Eigen::Vector3d(const Eigen::Vector3d&)> field;  ///< [m per unit amplitude]
+};
 
-std::string combination_name(const std::pair<int, int>& c) {
-  static const char* const names[3] = {"normal", "tangential_1", "tangential_2"};
-  return c.first == c.second ? names[c.first] : std::string(names[c.first]) + "+" + names[c.second];
+std::vector<CutTrace> cut_traces(AtlasModes modes, bool cut_translations, const PunchFrame& frame, double a,
+                                 const geometry::Material& material) {
+  static const char* const mode_names[3] = {"normal", "tangential_1", "tangential_2"};
+  static const char* const shift_names[3] = {"shift_e3", "shift_e1", "shift_e2"};
+  std::vector<CutTrace> traces;
+  for (int m = 0; m < mode_count(modes); ++m) {
+    const PunchMode mode = mode_order[static_cast<std::size_t>(m)];
+    traces.push_back({mode_names[m], [frame, a, material, mode](const Eigen::Vector3d& x) {
+                        return realtime::mfs::punch_field(mode, frame, a, material, x).displacement;
+                      }});
+  }
+  if (cut_translations) {
+    const Eigen::Vector3d axes[3] = {frame.axes.col(2), frame.axes.col(0), frame.axes.col(1)};
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d e = axes[k];
+      traces.push_back({shift_names[k], [e](const Eigen::Vector3d&) { return e; }});
+    }
+  }
+  return traces;
 }
-
 
 std::string sample_label(const meshes::MeshParameters& g) {
   if (g.benchmark == meshes::Benchmark::B1) return "top_centre";
@@ -157,17 +170,16 @@ Eigen::Matrix3d half_space_exterior_stiffness_N_per_m(double tool_radius_m, doub
 }
 
 ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry, const geometry::Material& material,
-                                         AtlasModes modes, const std::vector<int>& refinements, double trace_depth_m,
-                                         const fem::SolverParameters& solver, const AtlasRunOptions& options,
-                                         const std::string& work_directory) {
+                                         AtlasModes modes, bool cut_translations, const std::vector<int>& refinements,
+                                         double trace_depth_m, const fem::SolverParameters& solver,
+                                         const AtlasRunOptions& options, const std::string& work_directory) {
+  using Matrix = ExteriorStiffness::Matrix;
   const bool rank0 = fem::MpiSession::rank() == 0;
   meshes::MeshParameters g = geometry;
   g.exterior_of_local_ball = true;
   const PunchFrame frame = atlas_punch_frame(geometry);
-  const geometry::Material& punch_material = material;
-  const double a = g.tool_radius_m;
-  const int n = mode_count(modes);
-  const auto combinations = trace_combinations(modes);
+  const std::vector<CutTrace> traces = cut_traces(modes, cut_translations, frame, g.tool_radius_m, material);
+  const int n = static_cast<int>(traces.size());
 
   ExteriorStiffness result;
   const auto start = std::chrono::steady_clock::now();
@@ -188,14 +200,20 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
     const std::string entry = options.cache_directory.empty()
                                   ? (fs::path(work_directory) / ("L" + std::to_string(level))).string()
                                   : options.cache_directory + "/atlas/" + key.substr(0, 24);
-    const std::string energies_path = entry + "/energies.json";
+    const std::string solves_path = entry + "/solves.json";
     const std::string msh_path = entry + "/mesh.msh";
 
     fem::MpiSession::barrier();
-    json energies = json::object();
-    if (!options.cache_directory.empty() && fs::exists(energies_path)) energies = json::parse(read_file(energies_path));
-    const bool missing = std::any_of(combinations.begin(), combinations.end(),
-                                     [&](const auto& c) { return !energies.contains(combination_name(c)); });
+    // One entry per trace: its energy and its reaction's work against every trace of this run
+    // (an entry made without some of them is solved again).
+    json solves = json::object();
+    if (!options.cache_directory.empty() && fs::exists(solves_path)) solves = json::parse(read_file(solves_path));
+    const auto complete = [&](const CutTrace& t) {
+      if (!solves.contains(t.name)) return false;
+      const json& works = solves.at(t.name).at("works_J");
+      return std::all_of(traces.begin(), traces.end(), [&](const CutTrace& u) { return works.contains(u.name); });
+    };
+    const bool missing = !std::all_of(traces.begin(), traces.end(), complete);
     if (missing && (options.cache_directory.empty() || !fs::exists(msh_path))) {
       if (rank0) {
         fs::create_directories(entry);
@@ -203,9 +221,8 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
       }
       fem::MpiSession::barrier();
     }
-    for (const auto& combination : combinations) {
-      const std::string name = combination_name(combination);
-      if (energies.contains(name)) {
+    for (const CutTrace& trace : traces) {
+      if (complete(trace)) {
         ++result.cached_solves;
         continue;
       }
@@ -214,37 +231,46 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
       problem.material = material;
       problem.clamped_boundaries = {"base"};
       problem.solver = solver;
-      std::vector<PunchMode> traced{mode_order[combination.first]};
-      if (combination.second != combination.first) traced.push_back(mode_order[combination.second]);
-      problem.conditions.push_back(
-          {"cut", fem::BoundaryCondition::Kind::displacement,
-           [frame, a, punch_material, traced, trace_depth_m](const Eigen::Vector3d& x) {
-             Eigen::Vector3d u = Eigen::Vector3d::Zero();
-             for (const PunchMode mode : traced)
-               u += realtime::mfs::punch_field(mode, frame, a, punch_material, x).displacement;
-             return Eigen::Vector3d(trace_depth_m * u);
-           }});
+      const auto field = trace.field;
+      problem.conditions.push_back({"cut", fem::BoundaryCondition::Kind::displacement,
+                                    [field, trace_depth_m](const Eigen::Vector3d& x) {
+                                      return Eigen::Vector3d(trace_depth_m * field(x));
+                                    }});
+      for (const CutTrace& other : traces) {
+        const auto other_field = other.field;
+        problem.boundary_works.push_back(
+            {"cut", [other_field, trace_depth_m](const Eigen::Vector3d& x) { return Eigen::Vector3d(trace_depth_m * other_field(x)); }});
+      }
       const auto solve_start = std::chrono::steady_clock::now();
       const fem::ElasticitySolution s = fem::solve_elasticity(problem);
-      energies[name] = {{"energy_J", s.energy_J},
-                        {"dofs", s.dof_count},
-                        {"iterations", s.solver_iterations},
-                        {"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count()}};
+      json works = json::object();
+      for (std::size_t k = 0; k < traces.size(); ++k) works[traces[k].name] = s.boundary_work_J[k];
+      solves[trace.name] = {{"energy_J", s.energy_J},
+                            {"works_J", works},
+                            {"dofs", s.dof_count},
+                            {"iterations", s.solver_iterations},
+                            {"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count()}};
       ++result.solves;
-      if (rank0) write_file_atomically(energies_path, energies.dump(2) + "\n");
+      if (rank0) write_file_atomically(solves_path, solves.dump(2) + "\n");
       fem::MpiSession::barrier();
     }
 
     const double scale = 1.0 / (trace_depth_m * trace_depth_m);
-    const auto energy = [&](int m, int k) {
-      return energies.at(combination_name({m, k})).at("energy_J").get<double>();
-    };
-    Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
-    for (int m = 0; m < n; ++m) k(m, m) = 2 * energy(m, m) * scale;
-    for (int m = 0; m < n; ++m)
-      for (int j = m + 1; j < n; ++j) k(m, j) = k(j, m) = (energy(m, j) - energy(m, m) - energy(j, j)) * scale;
-    result.levels_N_per_m.push_back(k);
-    result.dofs.push_back(energies.at(combination_name({0, 0})).at("dofs").get<std::size_t>());
+    Matrix k = Matrix::Zero();
+    for (int j = 0; j < n; ++j) {
+      const json& solve = solves.at(traces[static_cast<std::size_t>(j)].name);
+      for (int i = 0; i < n; ++i) k(i, j) = solve.at("works_J").at(traces[static_cast<std::size_t>(i)].name).get<double>() * scale;
+      // The reaction's work against the solve's own trace is twice its energy.
+      const double energy = 2 * solve.at("energy_J").get<double>() * scale;
+      if (!(std::abs(k(j, j) - energy) <= 1e-6 * std::abs(energy)))
+        throw std::runtime_error(entry + ": trace '" + traces[static_cast<std::size_t>(j)].name + "': the reaction's work " +
+                                 format_number(k(j, j)) + " differs from twice the energy " + format_number(energy) +
+                                 " (the cut's degrees of freedom were not all found)");
+    }
+    const double largest = k.diagonal().head(n).cwiseAbs().maxCoeff();
+    result.asymmetry = std::max(result.asymmetry, (k - k.transpose()).cwiseAbs().maxCoeff() / largest);
+    result.levels_N_per_m.push_back(0.5 * (k + k.transpose()));
+    result.dofs.push_back(solves.at(traces.front().name).at("dofs").get<std::size_t>());
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -252,7 +278,7 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
   // matrix stays one consistent linear combination of the last two levels (symmetric, and
   // positive definite whenever both are, for a positive correction weight below one).
   const auto& levels = result.levels_N_per_m;
-  const Eigen::Matrix3d& finest = levels.back();
+  const Matrix& finest = levels.back();
   result.stiffness_N_per_m = finest;
   result.observed_order = std::numeric_limits<double>::quiet_NaN();
   if (levels.size() >= 3) {
@@ -267,12 +293,12 @@ ExteriorStiffness exterior_stiffness_fem(const meshes::MeshParameters& geometry,
       result.asymptotic = result.asymptotic && fem::richardson_extrapolate(values, 2.0, energy_convergence_order).asymptotic;
     }
     if (std::isfinite(r.observed_order) && r.observed_order > 0) {
-      const Eigen::Matrix3d& previous = levels[levels.size() - 2];
+      const Matrix& previous = levels[levels.size() - 2];
       result.stiffness_N_per_m = finest + (finest - previous) / (std::pow(2.0, r.observed_order) - 1);
     }
   }
   double error = 0;
-  const Eigen::Matrix3d& previous = levels.size() >= 2 ? levels[levels.size() - 2] : finest;
+  const Matrix& previous = levels.size() >= 2 ? levels[levels.size() - 2] : finest;
   for (int m = 0; m < n; ++m) {
     const double k = result.stiffness_N_per_m(m, m);
     const double correction = std::abs(k - finest(m, m));
@@ -378,6 +404,7 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
     study.polar_angles_rad = atlas.quantity_list("polar_angles", Dimension::angle, study.polar_angles_rad);
   }
   study.modes = atlas.choice("modes", {"normal", "all"}, "all") == "normal" ? AtlasModes::normal : AtlasModes::all;
+  study.cut_translations = atlas.boolean("cut_translations", study.cut_translations);
   const int levels = read_int(atlas, "levels", 3);
   if (levels < 1 || levels > 5) throw ConfigError(atlas.where("levels") + ": " + std::to_string(levels) + " must be in [1, 5]");
   study.refinements.clear();
@@ -472,6 +499,8 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
     atlas.axisymmetric_about_z = true;  // both benchmark bodies and their clamped bases are
   }
   atlas.mode_count = n;
+  atlas.cut_translations = study.cut_translations;
+  const int size = atlas.matrix_size();
 
   json samples = json::array();
   const auto start = std::chrono::steady_clock::now();
@@ -485,8 +514,9 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
     const double theta = sample_angles[sample_index];
     const std::string label = sample_label(g);
     const ExteriorStiffness k =
-        exterior_stiffness_fem(g, study.material, study.modes, study.refinements, study.trace_depth_m, study.solver,
-                               options, (fs::path(options.output_directory) / "work" / label).string());
+        exterior_stiffness_fem(g, study.material, study.modes, study.cut_translations, study.refinements,
+                               study.trace_depth_m, study.solver, options,
+                               (fs::path(options.output_directory) / "work" / label).string());
 
     realtime::mfs::OrganAtlasSample sample;
     sample.label = label;
@@ -497,7 +527,7 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
     sample.local_radius_m = l;
     sample.youngs_modulus_Pa = study.material.youngs_modulus_Pa;
     sample.poisson_ratio = study.material.poisson_ratio;
-    sample.stiffness_N_per_m.topLeftCorner(n, n) = k.stiffness_N_per_m.topLeftCorner(n, n);
+    sample.stiffness_N_per_m.topLeftCorner(size, size) = k.stiffness_N_per_m.topLeftCorner(size, size);
     sample.half_space_stiffness_N_per_m.topLeftCorner(n, n) = half_space.topLeftCorner(n, n);
     sample.relative_error = k.relative_error;
     sample.dofs = k.dofs.back();
@@ -508,7 +538,7 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
     for (std::size_t i = 0; i < k.levels_N_per_m.size(); ++i)
       levels.push_back({{"refinement", study.refinements[i]},
                         {"dofs", k.dofs[i]},
-                        {"stiffness_N_per_m", matrix_json(k.levels_N_per_m[i], n)}});
+                        {"stiffness_N_per_m", matrix_json(k.levels_N_per_m[i], size)}});
     json ratio = json::array();
     for (int m = 0; m < n; ++m) ratio.push_back(k.stiffness_N_per_m(m, m) / half_space(m, m));
     samples.push_back({{"label", label},
@@ -516,7 +546,8 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
                        {"contact_point_m", vector_json(sample.contact_point_m)},
                        {"direction", vector_json(sample.direction)},
                        {"frame_origin_m", vector_json(sample.frame.origin)},
-                       {"stiffness_N_per_m", matrix_json(sample.stiffness_N_per_m, n)},
+                       {"stiffness_N_per_m", matrix_json(sample.stiffness_N_per_m, size)},
+                       {"asymmetry", k.asymmetry},
                        {"half_space_stiffness_N_per_m", matrix_json(sample.half_space_stiffness_N_per_m, n)},
                        {"ratio_to_half_space_diagonal", ratio},
                        {"observed_order", std::isfinite(k.observed_order) ? json(k.observed_order) : json(nullptr)},
@@ -531,6 +562,8 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
       if (n == 3)
         std::printf(", K_t1 = %.6g (x%.5f), K_t2 = %.6g (x%.5f), K_n,t1 = %.4g", k.stiffness_N_per_m(1, 1),
                     ratio[1].get<double>(), k.stiffness_N_per_m(2, 2), ratio[2].get<double>(), k.stiffness_N_per_m(0, 1));
+      if (study.cut_translations)
+        std::printf(", K_shift3 = %.6g, K_n,shift3 = %.4g", k.stiffness_N_per_m(n, n), k.stiffness_N_per_m(0, n));
       std::printf("; error %.3f %%, order %s, %zu dofs, %zu solves (%zu cached), %.1f s\n", 100 * k.relative_error,
                   std::isfinite(k.observed_order) ? format_number(k.observed_order).c_str() : "n/a", k.dofs.back(),
                   k.solves, k.cached_solves, k.seconds);
@@ -545,6 +578,7 @@ realtime::mfs::OrganAtlas run_organ_atlas_study(const OrganAtlasStudy& given, co
                   {"provenance", provenance(options.config_text)},
                   {"organ", atlas.organ},
                   {"modes", to_string(study.modes)},
+                  {"cut_translations", study.cut_translations},
                   {"tool_radius_m", a},
                   {"local_radius_m", l},
                   {"youngs_modulus_Pa", study.material.youngs_modulus_Pa},

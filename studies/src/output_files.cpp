@@ -27,7 +27,7 @@ json json_number(double value) { return std::isfinite(value) ? json(value) : jso
 
 json vector_json(const Eigen::Vector3d& v) { return json::array({json_number(v[0]), json_number(v[1]), json_number(v[2])}); }
 
-json matrix_json(const Eigen::Matrix3d& m, int n) {
+json matrix_json(const Eigen::Ref<const Eigen::MatrixXd>& m, int n) {
   json rows = json::array();
   for (int i = 0; i < n; ++i) {
     json row = json::array();

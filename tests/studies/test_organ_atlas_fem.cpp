@@ -5,6 +5,7 @@
 #include "reference_fem/fem_test_meshes.hpp"
 #include "touchstone/meshes/organ_geometry.hpp"
 
+#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -78,6 +79,7 @@ TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
     ConfigTable config = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/" + name);
     const OrganAtlasStudy study = read_organ_atlas_study(config);
     EXPECT_EQ(study.modes, AtlasModes::all) << name;
+    EXPECT_TRUE(study.cut_translations) << name;
     EXPECT_EQ(study.refinements, (std::vector<int>{0, 1, 2})) << name;
     EXPECT_DOUBLE_EQ(study.geometry.tool_radius_m, a) << name;
     EXPECT_DOUBLE_EQ(study.geometry.local_radius_m, l) << name;
@@ -90,6 +92,7 @@ TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
     const OrganAtlasStudy study = read_organ_atlas_study(config);
     EXPECT_EQ(study.geometry.benchmark, meshes::Benchmark::Organ) << name;
     EXPECT_EQ(study.modes, modes) << name;
+    EXPECT_EQ(study.cut_translations, modes == AtlasModes::all) << name;  // the cross-check compares K_nn only
     EXPECT_FALSE(study.generated_organ.empty()) << name;
     EXPECT_TRUE(std::isnan(study.region_centre_m[0])) << name;  // the organ's highest point
   }
@@ -169,7 +172,7 @@ AtlasRunOptions uncached() {
 // W = 160a the coarse two-level result lies within a few per cent above it.
 TEST(OrganAtlasFem, WideCylinderApproachesTheHalfSpaceClosedForm) {
   const ExteriorStiffness k = exterior_stiffness_fem(coarse_geometry(meshes::Benchmark::B1, 160 * a), tissue(),
-                                                     AtlasModes::normal, {0, 1}, 1e-4, fem::SolverParameters{},
+                                                     AtlasModes::normal, false, {0, 1}, 1e-4, fem::SolverParameters{},
                                                      uncached(), WorkDirectory("wide_b1").path());
   const double half_space = half_space_exterior_stiffness_N_per_m(a, l, punch_material())(0, 0);
   const double ratio = k.stiffness_N_per_m(0, 0) / half_space;
@@ -187,7 +190,7 @@ TEST(OrganAtlasFem, WideCylinderApproachesTheHalfSpaceClosedForm) {
 // 17.794 N/m, Richardson 17.779 N/m ± 0.09 %, half-space 14.490 N/m).
 TEST(OrganAtlasFem, HemispherePoleIsStifferThanTheHalfSpaceAndConverges) {
   const ExteriorStiffness k = exterior_stiffness_fem(coarse_geometry(meshes::Benchmark::B2, body_radius_m), tissue(),
-                                                     AtlasModes::normal, {0, 1, 2}, 1e-4, fem::SolverParameters{},
+                                                     AtlasModes::normal, false, {0, 1, 2}, 1e-4, fem::SolverParameters{},
                                                      uncached(), WorkDirectory("pole").path());
   ASSERT_EQ(k.levels_N_per_m.size(), 3u);
   const double half_space = half_space_exterior_stiffness_N_per_m(a, l, punch_material())(0, 0);
@@ -205,6 +208,36 @@ TEST(OrganAtlasFem, HemispherePoleIsStifferThanTheHalfSpaceAndConverges) {
   // (a) Above the half-space: 1.227 measured, ± 0.01 for solver and meshing differences.
   const double ratio = k.stiffness_N_per_m(0, 0) / half_space;
   EXPECT_NEAR(ratio, 1.227, 0.01);
+}
+
+// The matrix comes from one solve per trace and the reaction's work against every other trace
+// (fem::BoundaryWork). Its checks: reciprocity (K symmetric before it is symmetrised, to the
+// solver's tolerance), the modes' block independent of whether the cut translations are added
+// (the same solves), positive definite, and the diagonal equal to twice each solve's energy
+// (checked inside exterior_stiffness_fem, which throws otherwise). A shift of the cut along the
+// push loads the exterior the way the normal mode does, so their coupling is positive, and the
+// rigid shift of the whole cut is stiffer than the punch mode, whose trace decays away from the
+// axis (about 26× on this coarse mesh).
+TEST(OrganAtlasFem, CutTranslationsAreReciprocalAndLeaveTheModesUnchanged) {
+  const meshes::MeshParameters g = coarse_geometry(meshes::Benchmark::B2, body_radius_m);
+  const ExteriorStiffness modes = exterior_stiffness_fem(g, tissue(), AtlasModes::all, false, {0}, 1e-4,
+                                                         fem::SolverParameters{}, uncached(), WorkDirectory("modes").path());
+  const ExteriorStiffness with = exterior_stiffness_fem(g, tissue(), AtlasModes::all, true, {0}, 1e-4,
+                                                        fem::SolverParameters{}, uncached(), WorkDirectory("shift").path());
+  const Eigen::MatrixXd k = with.stiffness_N_per_m.topLeftCorner(6, 6);
+  std::printf("K_ext with the cut translations (N/m), asymmetry %.3g:\n", with.asymmetry);
+  for (int i = 0; i < 6; ++i) std::printf("  %10.5g %10.5g %10.5g %10.5g %10.5g %10.5g\n", k(i, 0), k(i, 1), k(i, 2), k(i, 3), k(i, 4), k(i, 5));
+  EXPECT_LT(with.asymmetry, 1e-6);
+  EXPECT_LT(modes.asymmetry, 1e-6);
+  EXPECT_LT((k.topLeftCorner(3, 3) - modes.stiffness_N_per_m.topLeftCorner(3, 3)).cwiseAbs().maxCoeff(), 1e-9 * k(0, 0));
+  EXPECT_TRUE(modes.stiffness_N_per_m.bottomRightCorner(3, 3).isZero(0.0));
+  EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(k).info(), Eigen::Success);
+  EXPECT_GT(k(0, 3), 0.0);
+  EXPECT_GT(k(3, 3), 10 * k(0, 0));
+  // At the pole the body is symmetric about the axis: the normal mode does not couple with the
+  // sideways shifts, nor the shift along the axis with them (to the unstructured mesh's asymmetry,
+  // 7e-4 of the shift's stiffness here).
+  EXPECT_LT(std::abs(k(0, 4)) + std::abs(k(0, 5)) + std::abs(k(3, 4)) + std::abs(k(3, 5)), 2e-3 * k(3, 3));
 }
 
 // The generic path: the hemisphere given as an STL surface (8,000 triangles; the base held by
@@ -231,7 +264,7 @@ TEST(OrganAtlasFem, HemisphereAsAnStlSurfaceGivesTheDedicatedExteriorStiffness) 
   g.organ.surface_path = surface;
   g.organ.contact_point_m = {0.0, 0.0, body_radius_m};
   g.organ.attachment.plane_normal = {0.0, 0.0, 1.0};
-  const ExteriorStiffness k = exterior_stiffness_fem(g, tissue(), AtlasModes::normal, {0, 1}, 1e-4, fem::SolverParameters{},
+  const ExteriorStiffness k = exterior_stiffness_fem(g, tissue(), AtlasModes::normal, false, {0, 1}, 1e-4, fem::SolverParameters{},
                                                      uncached(), directory);
   ASSERT_EQ(k.levels_N_per_m.size(), 2u);
   const double k0 = k.levels_N_per_m[0](0, 0), k1 = k.levels_N_per_m[1](0, 0);

@@ -302,7 +302,7 @@ time_series = false
   sample.poisson_ratio = 0.45;
   // Twice the half-space's K_ext (normal 14.4899, tangential 7.32969 N/m: studies/organ_atlas).
   sample.half_space_stiffness_N_per_m.diagonal() << 14.4899, 7.32969, 7.32969;
-  sample.stiffness_N_per_m = 2 * sample.half_space_stiffness_N_per_m;
+  sample.stiffness_N_per_m.topLeftCorner<3, 3>() = 2 * sample.half_space_stiffness_N_per_m;
   atlas.samples.push_back(sample);
   realtime::mfs::write_organ_atlas(atlas, directory.path("atlas.json"));
 

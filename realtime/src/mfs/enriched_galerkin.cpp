@@ -387,18 +387,24 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const bool bonded = contact.condition == geometry::ContactCondition::bonded;
   const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
   const Eigen::Index m = static_cast<Eigen::Index>(model.modes.size());
-  const Eigen::Index n = 3 * n_nodes + m;
   const double a = contact.radius_m;
   const auto fail = [&](std::string why) {
     model.status = std::move(why);
     return model;
   };
   const Eigen::Index translations = translation_mode_count(model.modes);
+  bool cut_shift = false;
   if (settings.exterior == ExteriorCondition::body_aware) {
-    if (!exterior_stiffness_N_per_m || exterior_stiffness_N_per_m->rows() != translations ||
-        exterior_stiffness_N_per_m->cols() != translations)
+    const Eigen::Index size = exterior_stiffness_N_per_m ? exterior_stiffness_N_per_m->rows() : -1;
+    if (!exterior_stiffness_N_per_m || exterior_stiffness_N_per_m->cols() != size ||
+        (size != translations && size != translations + 3))
       return fail("body_aware exterior without an exterior stiffness of the right size");
+    cut_shift = size == translations + 3;
   }
+  model.cut_translations = cut_shift;
+  // Unknowns: the nodes' 3-vectors, the mode amplitudes, and the cut's rigid shift if any.
+  const Eigen::Index modes_at = 3 * n_nodes, shift_at = modes_at + m;
+  const Eigen::Index n = shift_at + (cut_shift ? 3 : 0);
 
   cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
                                        settings.support_neighbours, settings.min_point_neighbours);
@@ -475,11 +481,11 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
           K.block<3, 1>(3 * b.nodes[k], 3 * n_nodes + i) += b.weight * b.values[k] * traction;
         for (Eigen::Index j = 0; j < m; ++j) K(3 * n_nodes + j, 3 * n_nodes + i) += b.weight * b.psi[j].displacement.dot(traction);
       }
-  K.bottomLeftCorner(m, 3 * n_nodes) = K.topRightCorner(3 * n_nodes, m).transpose();
-  const Eigen::MatrixXd psi_block = K.bottomRightCorner(m, m);
-  K.bottomRightCorner(m, m) = 0.5 * (psi_block + psi_block.transpose());
+  K.block(modes_at, 0, m, modes_at) = K.block(0, modes_at, modes_at, m).transpose();
+  const Eigen::MatrixXd psi_block = K.block(modes_at, modes_at, m, m);
+  K.block(modes_at, modes_at, m, m) = 0.5 * (psi_block + psi_block.transpose());
 
-  // The exterior energy.
+  // The exterior energy, over the amplitudes and the cut's shift.
   model.exterior_stiffness_N_per_m.setZero(m, m);
   if (settings.exterior == ExteriorCondition::half_space)
     model.exterior_stiffness_N_per_m = half_space_exterior_stiffness(model.modes, frame, a, material, quad.cut);
@@ -489,9 +495,23 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     // dome a small normal one; docs/enriched_model.md, The atlas and the extra modes).
     if (translations < m)
       model.exterior_stiffness_N_per_m = half_space_exterior_stiffness(model.modes, frame, a, material, quad.cut);
-    model.exterior_stiffness_N_per_m.topLeftCorner(translations, translations) = *exterior_stiffness_N_per_m;
+    const Eigen::MatrixXd& atlas = *exterior_stiffness_N_per_m;
+    model.exterior_stiffness_N_per_m.topLeftCorner(translations, translations) = atlas.topLeftCorner(translations, translations);
+    if (cut_shift) {
+      // The shift's rows: its own block and its coupling with the translation modes; the
+      // radial and tilt modes' coupling with it is not in the atlas (zero).
+      model.exterior_stiffness_N_per_m.conservativeResize(m + 3, m + 3);
+      model.exterior_stiffness_N_per_m.rightCols<3>().setZero();
+      model.exterior_stiffness_N_per_m.bottomRows<3>().setZero();
+      model.exterior_stiffness_N_per_m.bottomRightCorner<3, 3>() = atlas.bottomRightCorner<3, 3>();
+      model.exterior_stiffness_N_per_m.block(0, m, translations, 3) = atlas.topRightCorner(translations, 3);
+      model.exterior_stiffness_N_per_m.block(m, 0, 3, translations) = atlas.bottomLeftCorner(3, translations);
+    }
   }
-  K.bottomRightCorner(m, m) += model.exterior_stiffness_N_per_m;
+  K.bottomRightCorner(n - modes_at, n - modes_at) += model.exterior_stiffness_N_per_m;
+  // The shift's directions in the global frame, in the atlas's order e₃, e₁, e₂.
+  Eigen::Matrix3d shift_axes;
+  shift_axes << frame.axes.col(2), frame.axes.col(0), frame.axes.col(1);
 
   // Constraint rows B (and their right-hand sides per unit U_tool, G) and each row's resultant
   // per unit multiplier (3-vector), to turn multipliers into forces.
@@ -594,6 +614,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
         for (std::size_t k = 0; k < b.nodes.size(); ++k) row.segment<3>(3 * b.nodes[k]) += b.values[k] * mu.transpose();
         if (surfaces[s].includes_enrichment)
           for (Eigen::Index i = 0; i < m; ++i) row(3 * n_nodes + i) += mu.dot(b.psi[i].displacement);
+        // On the cut the MLS part equals the shift: ∮ μ·(Σ N_J u_J − t) = 0.
+        if (cut_shift && s == 0) row.segment<3>(shift_at) -= mu.transpose() * shift_axes;
         resultant[static_cast<std::size_t>(first + j)] += mu;
       }
     }

@@ -456,7 +456,15 @@ ExteriorStiffnessSource exterior_from_atlas(std::shared_ptr<const OrganAtlas> at
                 "more than 1 degree off the patch normal): make the atlas with modes = \"all\"";
       return false;
     }
-    stiffness = found.stiffness_N_per_m.topLeftCorner(modes, modes);
+    // The model's modes, then the atlas's cut translations if it has them.
+    std::vector<int> keep;
+    for (int i = 0; i < modes; ++i) keep.push_back(i);
+    if (found.cut_translations)
+      for (int i = 0; i < 3; ++i) keep.push_back(found.mode_count + i);
+    const Eigen::Index size = static_cast<Eigen::Index>(keep.size());
+    stiffness.resize(size, size);
+    for (Eigen::Index i = 0; i < size; ++i)
+      for (Eigen::Index j = 0; j < size; ++j) stiffness(i, j) = found.stiffness_N_per_m(keep[i], keep[j]);
     return true;
   };
 }

@@ -1,5 +1,6 @@
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
@@ -91,11 +92,11 @@ class AtlasReader {
     if (std::abs(v.norm() - 1) > 1e-6) fail(child(where, key), "has length " + text_of(v.norm()) + ", not 1");
     return v;
   }
-  /// An n×n array of rows.
-  Eigen::Matrix3d matrix(const json& object, const std::string& where, const std::string& key, int n) const {
+  /// An n×n array of rows (n ≤ 6), in the top-left block.
+  ExteriorMatrix matrix(const json& object, const std::string& where, const std::string& key, int n) const {
     const std::string name = child(where, key);
     const json& rows = array(member(object, where, key), name, static_cast<std::size_t>(n));
-    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    ExteriorMatrix m = ExteriorMatrix::Zero();
     for (int i = 0; i < n; ++i) {
       const std::string row_name = name + "[" + std::to_string(i) + "]";
       const json& row = array(rows[i], row_name, static_cast<std::size_t>(n));
@@ -109,7 +110,7 @@ class AtlasReader {
     return m;
   }
 
-  OrganAtlasSample sample(const json& value, const std::string& where, int modes) const {
+  OrganAtlasSample sample(const json& value, const std::string& where, int modes, int size) const {
     OrganAtlasSample s;
     s.label = string(value, where, "label");
     s.contact_point_m = vector3(value, where, "contact_point_m");
@@ -132,12 +133,16 @@ class AtlasReader {
     s.poisson_ratio = number(value, where, "poisson_ratio");
     if (!(s.poisson_ratio >= 0 && s.poisson_ratio < 0.5))
       fail(child(where, "poisson_ratio"), "= " + text_of(s.poisson_ratio) + " must be in [0, 0.5)");
-    s.stiffness_N_per_m = matrix(value, where, "stiffness_N_per_m", modes);
-    for (int i = 0; i < modes; ++i)
+    s.stiffness_N_per_m = matrix(value, where, "stiffness_N_per_m", size);
+    for (int i = 0; i < size; ++i)
       if (!(s.stiffness_N_per_m(i, i) > 0))
         fail(child(where, "stiffness_N_per_m") + "[" + std::to_string(i) + "][" + std::to_string(i) + "]",
              "= " + text_of(s.stiffness_N_per_m(i, i)) + " must be > 0 (an energy)");
-    s.half_space_stiffness_N_per_m = matrix(value, where, "half_space_stiffness_N_per_m", modes);
+    // An energy: with the translations the cross terms matter too (a rigid shift of the trace
+    // against the modes), so the whole matrix must be positive definite.
+    if (size > 1 && Eigen::LLT<Eigen::MatrixXd>(s.stiffness_N_per_m.topLeftCorner(size, size)).info() != Eigen::Success)
+      fail(child(where, "stiffness_N_per_m"), "is not positive definite (not an elastic energy)");
+    s.half_space_stiffness_N_per_m = matrix(value, where, "half_space_stiffness_N_per_m", modes).topLeftCorner<3, 3>();
     s.relative_error = non_negative(value, where, "relative_error");
     const double dofs = non_negative(value, where, "dofs");
     if (dofs != std::floor(dofs)) fail(child(where, "dofs"), "is not a whole number");
@@ -163,10 +168,11 @@ class AtlasReader {
     const std::string modes = string(document, "", "modes");
     if (modes != "normal" && modes != "all") fail("modes", "is '" + modes + "', expected 'normal' or 'all'");
     atlas.mode_count = modes == "normal" ? 1 : 3;
+    if (document.contains("cut_translations")) atlas.cut_translations = boolean(document, "", "cut_translations");
     const json& samples = array(member(document, "", "samples"), "samples", 0);
     if (samples.empty()) fail("samples", "is empty");
     for (std::size_t i = 0; i < samples.size(); ++i)
-      atlas.samples.push_back(sample(samples[i], "samples[" + std::to_string(i) + "]", atlas.mode_count));
+      atlas.samples.push_back(sample(samples[i], "samples[" + std::to_string(i) + "]", atlas.mode_count, atlas.matrix_size()));
     return atlas;
   }
 
@@ -176,7 +182,8 @@ class AtlasReader {
 
 json vector_json(const Eigen::Vector3d& v) { return json::array({v[0], v[1], v[2]}); }
 
-json matrix_json(const Eigen::Matrix3d& m, int n) {
+template <typename Matrix>
+json matrix_json(const Matrix& m, int n) {
   json rows = json::array();
   for (int i = 0; i < n; ++i) {
     json row = json::array();
@@ -234,7 +241,7 @@ void write_organ_atlas(const OrganAtlas& atlas, const std::string& path) {
                        {"local_radius_m", s.local_radius_m},
                        {"youngs_modulus_Pa", s.youngs_modulus_Pa},
                        {"poisson_ratio", s.poisson_ratio},
-                       {"stiffness_N_per_m", matrix_json(s.stiffness_N_per_m, atlas.mode_count)},
+                       {"stiffness_N_per_m", matrix_json(s.stiffness_N_per_m, atlas.matrix_size())},
                        {"half_space_stiffness_N_per_m", matrix_json(s.half_space_stiffness_N_per_m, atlas.mode_count)},
                        {"relative_error", s.relative_error},
                        {"dofs", s.dofs},
@@ -246,6 +253,7 @@ void write_organ_atlas(const OrganAtlas& atlas, const std::string& path) {
                       {"axisymmetric_about_z", atlas.axisymmetric_about_z},
                       {"modes", atlas.mode_count == 1 ? "normal" : "all"},
                       {"samples", samples}};
+  if (atlas.cut_translations) document["cut_translations"] = true;
   if (!atlas.surface_sha256.empty()) document["surface_sha256"] = atlas.surface_sha256;
   if (!atlas.attachment.empty()) document["attachment"] = atlas.attachment;
   std::ofstream out(path, std::ios::out | std::ios::trunc);
@@ -272,6 +280,7 @@ OrganAtlasLookup lookup_exterior_stiffness(const OrganAtlas& atlas, const OrganA
   query.material.validate();
   OrganAtlasLookup result;
   result.mode_count = atlas.mode_count;
+  result.cut_translations = atlas.cut_translations;
   if (atlas.samples.empty()) {
     result.message = "the atlas has no samples";
     return result;
@@ -337,8 +346,8 @@ OrganAtlasLookup lookup_exterior_stiffness(const OrganAtlas& atlas, const OrganA
   std::sort(nearby.begin(), nearby.end(),
             [](const auto& x, const auto& y) { return x.first < y.first; });
   if (nearby.front().first <= 1e-9 * query.local_radius_m) nearby.resize(1);
-  const int n = atlas.mode_count;
-  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  const int n = atlas.mode_count, size = atlas.matrix_size();
+  ExteriorMatrix sum = ExteriorMatrix::Zero();
   double weights = 0, error = 0;
   for (const auto& [distance, sample] : nearby) {
     const double w = nearby.size() == 1 ? 1.0 : 1.0 / std::pow(distance, settings.power);
@@ -350,9 +359,13 @@ OrganAtlasLookup lookup_exterior_stiffness(const OrganAtlas& atlas, const OrganA
     // A global punch translation d has c_sample = Sᵀ d and c_query = Qᵀ d, so c_sample = T c_query
     // with T = Sᵀ Q, and ½ c_sampleᵀ K c_sample = ½ c_queryᵀ (Tᵀ K T) c_query. T₀₀ = 1 (e₃ is
     // carried onto e₃), so a normal-only matrix keeps its one entry.
+    // The cut translations are vectors in the same (e₃, e₁, e₂) order: the same T.
     const Eigen::Matrix3d t = sample_modes.transpose() * query_modes;
-    Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
-    k.topLeftCorner(n, n) = (t.transpose() * sample->stiffness_N_per_m * t).topLeftCorner(n, n);
+    ExteriorMatrix carried = ExteriorMatrix::Zero();
+    carried.topLeftCorner(n, n) = t.topLeftCorner(n, n);
+    if (atlas.cut_translations) carried.block<3, 3>(n, n) = t;
+    ExteriorMatrix k = ExteriorMatrix::Zero();
+    k.topLeftCorner(size, size) = (carried.transpose() * sample->stiffness_N_per_m * carried).topLeftCorner(size, size);
     sum += w * k * (query.material.youngs_modulus_Pa / sample->youngs_modulus_Pa);
     error += w * sample->relative_error;
     weights += w;

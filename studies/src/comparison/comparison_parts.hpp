@@ -90,9 +90,12 @@ void add_mfs_errors(nlohmann::json& c, const ProblemRun& r, const ReferenceValue
 // --- Table 2 and the targets (targets.cpp) -----------------------------------------------------
 
 /// Table 2: the paper's numbers next to ours (same node counts), with the force error each
-/// achieves and the reference's own error estimate. `first`: the study's first problem.
+/// achieves and the reference's own error estimate. `first`: the study's first problem; a later
+/// whole-hemisphere (B2) problem with an engine-default series adds that series' first case as
+/// the row `mfs_default_whole_body` (the paper's own comparison: the local model against the
+/// whole body).
 nlohmann::json table2(const nlohmann::json& cases, const ProblemRun& first, const ReferenceValue& fe_reference,
-                      const std::string& table2_mfs_series);
+                      const std::string& table2_mfs_series, const std::vector<ProblemRun>& problems);
 /// The speed and accuracy targets: each with the measured value, met or not, and by how much.
 nlohmann::json targets(const nlohmann::json& cases, const nlohmann::json& table2, bool have_full_reference,
                        const std::vector<ProblemRun>& problems);

@@ -228,7 +228,7 @@ class StudyRun {
       cases.push_back(std::move(c));
     }
 
-    document["table2"] = table2(cases, first, fe_row_reference, study_.table2_mfs_series);
+    document["table2"] = table2(cases, first, fe_row_reference, study_.table2_mfs_series, problems_);
     document["targets"] = targets(cases, document["table2"], full_reference.has_value(), problems_);
     document["depths_m"] = first.problem().depths_m;
     document["default_formulation"] = mfs::to_string(mfs::LocalModelSettings{}.formulation);

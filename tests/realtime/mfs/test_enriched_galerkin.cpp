@@ -127,7 +127,8 @@ TEST(EnrichedGalerkin, HalfSpaceBondedNormalForceIsMossakovskiis) {
 
 // A bonded tool asks the atlas for the three translations only and takes the radial shear and
 // tilt modes' exterior terms from the half-space: an atlas that answers with the half-space's own
-// translation block must give the half-space model, and a 6 × 6 answer is refused by name.
+// translation block must give the half-space model, and an answer of another size (5 × 5: neither
+// the translations nor the translations with the cut's shift) is refused by name.
 TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
   const ToolContact contact = top_contact(geometry::ContactCondition::bonded);
   const geometry::Material material;
@@ -154,8 +155,58 @@ TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
   ASSERT_TRUE(body.ok()) << body.status;
   EXPECT_LT((body.exterior_stiffness_N_per_m - half_space).norm(), 1e-12 * half_space.norm());
   EXPECT_LT((body.tool_stiffness_N_per_m - reference.tool_stiffness_N_per_m).norm(), 1e-9 * reference.tool_stiffness_N_per_m.norm());
-  const EnrichedModel wrong = build_with(ExteriorCondition::body_aware, &half_space);
+  const Eigen::MatrixXd five = half_space.topLeftCorner(5, 5);
+  const EnrichedModel wrong = build_with(ExteriorCondition::body_aware, &five);
   EXPECT_EQ(wrong.status, "body_aware exterior without an exterior stiffness of the right size");
+}
+
+// The cut's rigid shift (an atlas with cut translations): three more unknowns that the MLS part
+// takes on along the cut and the exterior prices. Adding freedom can only lower the energy at a
+// prescribed tool displacement (Rayleigh–Ritz), so the tool stiffness falls; an exterior that
+// holds the shift far more stiffly than the modes gives back the model without it.
+TEST(EnrichedGalerkin, CutShiftLowersTheStiffnessAndAStiffShiftIsNoShift) {
+  const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
+  const geometry::Material material;
+  const LocalSurface surface(flat_body(), contact.point, 1.3 * length);
+  EnrichedSettings settings;
+  settings.exterior = ExteriorCondition::body_aware;
+  EnrichedQuadratures quadratures;
+  PunchFrame frame;
+  std::string failure;
+  ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  ASSERT_EQ(translation_mode_count(modes), 1);
+  const double k_normal = half_space_exterior_stiffness(modes, frame, a, material, quadratures.cut)(0, 0);
+  const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};
+  const auto build_with = [&](const Eigen::MatrixXd& k) {
+    NodeCloud cloud = sprinkle_even_nodes(surface, contact, 40, length, 1);
+    return build_enriched_model(cloud, material, contact, quadratures, frame, settings, mls, &k);
+  };
+  const EnrichedModel plain = build_with(Eigen::MatrixXd::Constant(1, 1, k_normal));
+  ASSERT_TRUE(plain.ok()) << plain.status;
+  EXPECT_FALSE(plain.cut_translations);
+  const auto with_shift = [&](double shift_stiffness, double coupling) {
+    Eigen::MatrixXd k = Eigen::MatrixXd::Zero(4, 4);
+    k(0, 0) = k_normal;
+    k.bottomRightCorner<3, 3>() = shift_stiffness * Eigen::Matrix3d::Identity();
+    k(0, 1) = k(1, 0) = coupling;  // the normal mode against the shift along e₃
+    return build_with(k);
+  };
+  const double plain_zz = plain.tool_stiffness_N_per_m(2, 2);
+  const EnrichedModel stiff = with_shift(1e7 * k_normal, 0.0);
+  ASSERT_TRUE(stiff.ok()) << stiff.status;
+  EXPECT_TRUE(stiff.cut_translations);
+  EXPECT_EQ(stiff.unit_response.rows(), plain.unit_response.rows() + 3);
+  EXPECT_NEAR(stiff.tool_stiffness_N_per_m(2, 2) / plain_zz, 1.0, 1e-5);
+  const EnrichedModel soft = with_shift(k_normal, 0.0);
+  ASSERT_TRUE(soft.ok()) << soft.status;
+  std::printf("tool stiffness K_zz: no shift %.6g N/m, stiff shift %.6g, shift as stiff as the normal mode %.6g\n", plain_zz,
+              stiff.tool_stiffness_N_per_m(2, 2), soft.tool_stiffness_N_per_m(2, 2));
+  EXPECT_LT(soft.tool_stiffness_N_per_m(2, 2), plain_zz * (1 - 1e-3));
+  // The shift goes with the push (the trace sinks as a whole) and stays on the axis.
+  const Eigen::Vector3d shift = soft.unit_response.bottomRows<3>() * Eigen::Vector3d(0, 0, -1);
+  EXPECT_GT(shift[0], 0.0);
+  EXPECT_LT(std::abs(shift[1]) + std::abs(shift[2]), 1e-6 * shift[0]);
 }
 
 // B3, the identical domain (hemisphere R = 20a ∩ ball(pole, 5a), cut clamped), against its

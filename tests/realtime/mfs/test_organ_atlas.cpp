@@ -51,7 +51,7 @@ OrganAtlasSample hemisphere_sample(double theta, double k_normal) {
   s.local_radius_m = l;
   s.youngs_modulus_Pa = 10e3;
   s.poisson_ratio = 0.45;
-  s.stiffness_N_per_m << k_normal, 0.01, 0.002, 0.01, 0.8 * k_normal, 0.05, 0.002, 0.05, 0.6 * k_normal;
+  s.stiffness_N_per_m.topLeftCorner<3, 3>() << k_normal, 0.01, 0.002, 0.01, 0.8 * k_normal, 0.05, 0.002, 0.05, 0.6 * k_normal;
   s.half_space_stiffness_N_per_m << 0.95 * k_normal, 0, 0, 0, 0.77 * k_normal, 0, 0, 0, 0.77 * k_normal;
   s.relative_error = 1e-3;
   s.dofs = 123456;
@@ -120,6 +120,73 @@ TEST(OrganAtlasFile, NormalOnlyAtlasHoldsOneByOneMatrices) {
   EXPECT_EQ(back.mode_count, 1);
   EXPECT_EQ(back.samples[0].stiffness_N_per_m(0, 0), 1.0);
   EXPECT_EQ(back.samples[0].stiffness_N_per_m(1, 1), 0.0);
+}
+
+// An atlas with the cut's rigid shifts holds (n + 3) × (n + 3) matrices; it reads back exactly,
+// an atlas without the key reads as one without shifts, a wrongly sized or indefinite matrix is
+// refused by name, and a lookup turns the shift block with the same rotation as the modes (the
+// shifts are vectors in the frame's e₃, e₁, e₂ order).
+TEST(OrganAtlasFile, CutTranslationsRoundTripAndTurnWithTheFrame) {
+  OrganAtlas atlas = hemisphere_atlas();
+  atlas.cut_translations = true;
+  atlas.samples.resize(1);
+  OrganAtlasSample& s = atlas.samples[0];
+  s.stiffness_N_per_m.block<3, 3>(3, 3) << 26.0, 0.3, 0.1, 0.3, 13.0, 0.2, 0.1, 0.2, 11.0;
+  s.stiffness_N_per_m(0, 3) = s.stiffness_N_per_m(3, 0) = 4.6;   // normal mode with the shift along e₃
+  s.stiffness_N_per_m(1, 4) = s.stiffness_N_per_m(4, 1) = 1.4;   // tangential_1 with the shift along e₁
+  const std::string path = scratch("cut_translations.json");
+  write_organ_atlas(atlas, path);
+  nlohmann::json document = nlohmann::json::parse(std::ifstream(path));
+  EXPECT_EQ(document.at("cut_translations"), true);
+  EXPECT_EQ(document.at("samples").at(0).at("stiffness_N_per_m").size(), 6u);
+  EXPECT_EQ(document.at("samples").at(0).at("half_space_stiffness_N_per_m").size(), 3u);
+  const OrganAtlas back = read_organ_atlas(path);
+  EXPECT_TRUE(back.cut_translations);
+  EXPECT_EQ(back.matrix_size(), 6);
+  EXPECT_EQ(back.samples[0].stiffness_N_per_m, s.stiffness_N_per_m);
+
+  // Without the key: no shifts (the atlases written before them); with it, the sizes must follow.
+  nlohmann::json old = nlohmann::json::parse(std::ifstream(scratch("cut_translations.json")));
+  old.erase("cut_translations");
+  const auto read_error = [](const nlohmann::json& written, const std::string& name) -> std::string {
+    std::ofstream(scratch(name)) << written.dump();
+    try {
+      read_organ_atlas(scratch(name));
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "(read without an error)";
+  };
+  const std::string unkeyed = read_error(old, "no_key.json");
+  EXPECT_NE(unkeyed.find("samples[0].stiffness_N_per_m: has 6 entries, expected 3"), std::string::npos) << unkeyed;
+  document["samples"][0]["stiffness_N_per_m"][3][3] = -26.0;
+  const std::string negative = read_error(document, "negative.json");
+  EXPECT_NE(negative.find("samples[0].stiffness_N_per_m[3][3]: = -26 must be > 0"), std::string::npos) << negative;
+  // Positive diagonal, but a coupling too strong for an energy: the normal mode and the shift
+  // along e₃ (1 × 26 against 6²).
+  document["samples"][0]["stiffness_N_per_m"][3][3] = 26.0;
+  document["samples"][0]["stiffness_N_per_m"][0][3] = 6.0;
+  document["samples"][0]["stiffness_N_per_m"][3][0] = 6.0;
+  const std::string indefinite = read_error(document, "indefinite.json");
+  EXPECT_NE(indefinite.find("samples[0].stiffness_N_per_m: is not positive definite"), std::string::npos) << indefinite;
+
+  // Stored in a frame turned by 40° about e₃: the query's amplitudes and shifts are the sample's
+  // turned back, T = diag(1, R(−40°)) on each block, and E scales the whole matrix.
+  const double turn = 40 * pi / 180;
+  const Eigen::Matrix3d along = s.frame.axes;
+  s.frame.axes = Eigen::AngleAxisd(turn, along.col(2)).toRotationMatrix() * along;
+  OrganAtlasQuery q = query_at(s);
+  q.material.youngs_modulus_Pa = 20e3;
+  const OrganAtlasLookup r = lookup_exterior_stiffness(atlas, q);
+  ASSERT_EQ(r.status, OrganAtlasStatus::ok) << r.message;
+  EXPECT_TRUE(r.cut_translations);
+  Eigen::Matrix3d t = Eigen::Matrix3d::Identity();
+  t.block<2, 2>(1, 1) << std::cos(turn), std::sin(turn), -std::sin(turn), std::cos(turn);
+  ExteriorMatrix carried = ExteriorMatrix::Zero();
+  carried.topLeftCorner<3, 3>() = t;
+  carried.bottomRightCorner<3, 3>() = t;
+  const ExteriorMatrix expected = 2.0 * carried.transpose() * s.stiffness_N_per_m * carried;
+  EXPECT_LT((r.stiffness_N_per_m - expected).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 // Where the organ was held and which surface file it came from are recorded for a user's organ
@@ -298,8 +365,8 @@ TEST(OrganAtlasLookup, RotatesIntoTheQueryFrameAndUsesTheAxisymmetry) {
   // c_sample = T c_query with T = diag(1, R(−40°)) in the (normal, t1, t2) order.
   Eigen::Matrix3d t = Eigen::Matrix3d::Identity();
   t.block<2, 2>(1, 1) << std::cos(turn), std::sin(turn), -std::sin(turn), std::cos(turn);
-  const Eigen::Matrix3d expected = t.transpose() * s.stiffness_N_per_m * t;
-  EXPECT_LT((r.stiffness_N_per_m - expected).cwiseAbs().maxCoeff(), 1e-12);
+  const Eigen::Matrix3d expected = t.transpose() * s.stiffness_N_per_m.topLeftCorner<3, 3>() * t;
+  EXPECT_LT((r.stiffness_N_per_m.topLeftCorner<3, 3>() - expected).cwiseAbs().maxCoeff(), 1e-12);
   // On an axisymmetric atlas a contact at azimuth 90° (the pole sample turned about z) finds the
   // sample; its matrix is the same energy form, so the normal entry and the eigenvalues agree.
   atlas = hemisphere_atlas();
@@ -312,8 +379,8 @@ TEST(OrganAtlasLookup, RotatesIntoTheQueryFrameAndUsesTheAxisymmetry) {
   ASSERT_EQ(turned.status, OrganAtlasStatus::ok) << turned.message;
   EXPECT_EQ(turned.samples_used, 1u);
   EXPECT_NEAR(turned.stiffness_N_per_m(0, 0), off.stiffness_N_per_m(0, 0), 1e-12);
-  const Eigen::Vector3d got = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(turned.stiffness_N_per_m).eigenvalues();
-  const Eigen::Vector3d want = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(off.stiffness_N_per_m).eigenvalues();
+  const Eigen::Vector3d got = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(turned.stiffness_N_per_m.topLeftCorner<3, 3>()).eigenvalues();
+  const Eigen::Vector3d want = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(off.stiffness_N_per_m.topLeftCorner<3, 3>()).eigenvalues();
   EXPECT_LT((got - want).cwiseAbs().maxCoeff(), 1e-12);
   // Without the symmetry the same query is far from every sample.
   atlas.axisymmetric_about_z = false;

@@ -153,5 +153,47 @@ TEST_F(Targets, TheLocalModelAgainstTheWholeBodyIsMeasuredOnTheWholeBodyProblem)
   EXPECT_EQ(full->at("met"), true);
 }
 
+TEST_F(Targets, Table2AddsTheEngineDefaultOnTheWholeHemisphere) {
+  // The paper compares its local model with the whole body: a whole-hemisphere (B2) problem's
+  // engine-default series gives Table 2 a row of its first case, scored against that problem's
+  // own FEM; the B3 problem's row stays as it is.
+  problem.series.front().study.node_counts = {34};
+  const auto table2_case = [](const std::string& id, int requested, int nodes, double force_rel) {
+    json c = mfs_case(id, nodes, force_rel, 0.006, 0.008);
+    c["params"]["node_count_requested"] = requested;
+    c["time_s"]["model"] = 0.008;
+    c["time_s"]["solution"] = 1e-6;
+    c["qoi"] = {{"axial_force_N", 0.0163}};
+    return c;
+  };
+  const json local = table2_case("MFS-enriched-N34", 34, 33, 0.005);
+  json only_local = table2(json::array({local}), runs.front(), ReferenceValue{}, "", runs);
+  EXPECT_EQ(only_local.at("ours").at("mfs_default").at("case"), "MFS-enriched-N34");
+  EXPECT_FALSE(only_local.at("ours").contains("mfs_default_whole_body"));
+
+  StudyProblem whole = problem;
+  whole.name = "whole";
+  whole.id_prefix = "whole/";
+  whole.problem.benchmark = meshes::Benchmark::B2;
+  whole.series.front().study.node_counts = {30, 45};
+  ProblemRun w = runs.front();
+  w.sp = &whole;
+  w.reference_part = "whole/reference";
+  w.reference.id = "whole/reference/b2-reference";
+  w.reference.uncertainty_rel = 0.0026;
+  runs.push_back(w);
+  const json cases = json::array({local, table2_case("whole/MFS-enriched-N30", 30, 26, 0.0001),
+                                  table2_case("whole/MFS-enriched-N45", 45, 39, 0.0002)});
+  const json t = table2(cases, runs.front(), ReferenceValue{}, "", runs);
+  EXPECT_EQ(t.at("ours").at("mfs_default").at("case"), "MFS-enriched-N34");
+  const json& row = t.at("ours").at("mfs_default_whole_body");
+  EXPECT_EQ(row.at("case"), "whole/MFS-enriched-N30");
+  EXPECT_EQ(row.at("nodes"), 26);
+  EXPECT_DOUBLE_EQ(row.at("force_rel").get<double>(), 0.0001);
+  EXPECT_DOUBLE_EQ(row.at("force_rel_full_domain").get<double>(), 0.0001);
+  EXPECT_EQ(row.at("reference"), "whole/reference/b2-reference");
+  EXPECT_DOUBLE_EQ(row.at("reference_uncertainty_rel").get<double>(), 0.0026);
+}
+
 }  // namespace
 }  // namespace touchstone::studies::comparison

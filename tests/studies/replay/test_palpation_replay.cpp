@@ -149,7 +149,7 @@ void write_pole_atlas(const std::string& path, const std::string& attachment) {
   sample.local_radius_m = 0.0125;
   sample.youngs_modulus_Pa = 1e4;
   sample.poisson_ratio = 0.45;
-  sample.stiffness_N_per_m = Eigen::Vector3d(15, 8, 8).asDiagonal();
+  sample.stiffness_N_per_m.topLeftCorner<3, 3>() = Eigen::Vector3d(15, 8, 8).asDiagonal();
   sample.half_space_stiffness_N_per_m = Eigen::Vector3d(14.49, 7.33, 7.33).asDiagonal();
   sample.relative_error = 1e-3;
   sample.dofs = 1000;

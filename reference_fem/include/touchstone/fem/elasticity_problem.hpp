@@ -73,6 +73,17 @@ struct SolverParameters {
   void validate() const;
 };
 
+/// The work of the solution's boundary reaction against a field g on one named boundary:
+/// W = Σ r_i g(x_i) over the degrees of freedom i of that boundary, r = K u − f unconstrained and
+/// x_i the support points. On a boundary where u is prescribed this is a(u, v) for every finite
+/// element v with the trace g there and zero on the other prescribed boundaries, so a solve with
+/// trace g_j and the work against g_k give the energy cross term a(u_j, u_k) [J per the units
+/// of g] without a second solve.
+struct BoundaryWork {
+  std::string boundary;
+  VectorField field;  ///< g [m]: the virtual displacement
+};
+
 /// One linear elasticity solve. Boundaries not named anywhere are traction-free.
 struct ElasticityProblem {
   std::string mesh_path;                     ///< gmsh MSH 2.2 or 4.1 ASCII with named physical groups
@@ -83,6 +94,7 @@ struct ElasticityProblem {
   VectorField body_force;                    ///< [N/m³]; empty: none
   VectorField exact_displacement;            ///< [m]; when set, the L2 error is computed
   std::vector<Eigen::Vector3d> probes;       ///< points [m] where u is reported
+  std::vector<BoundaryWork> boundary_works;  ///< reported in ElasticitySolution::boundary_work_J
   SolverParameters solver;
   std::string vtu_directory;                 ///< empty: no VTU written
   std::string vtu_basename = "solution";
@@ -98,6 +110,9 @@ struct ElasticitySolution {
   /// 2U/δ [N]: the force along the punch axis implied by the energy (equals F·d for a
   /// displacement-driven load with everything else fixed or free).
   double energy_force_N = 0;
+
+  /// Per ElasticityProblem::boundary_works entry, the reaction's work against its field [J].
+  std::vector<double> boundary_work_J;
 
   std::vector<Eigen::Vector3d> probe_displacements_m;
   std::vector<bool> probe_found;  ///< false where a probe lies outside the mesh

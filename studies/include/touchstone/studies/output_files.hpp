@@ -18,7 +18,7 @@ namespace touchstone::studies {
 /// A finite number as itself, a non-finite one as null (JSON has no NaN).
 nlohmann::json json_number(double value);
 nlohmann::json vector_json(const Eigen::Vector3d& v);  ///< [x, y, z], non-finite → null
-nlohmann::json matrix_json(const Eigen::Matrix3d& m, int n = 3);  ///< rows of the top-left n×n block, non-finite → null
+nlohmann::json matrix_json(const Eigen::Ref<const Eigen::MatrixXd>& m, int n = 3);  ///< rows of the top-left n×n block, non-finite → null
 /// The inverses of vector_json and matrix_json (3 × 3) for what this program wrote: throws
 /// nlohmann::json's exception on a missing or non-numeric entry (a null written for NaN included).
 Eigen::Vector3d vector_from_json(const nlohmann::json& j);

@@ -99,16 +99,20 @@ struct EnrichedModel {
   PunchFrame frame;
   std::vector<PunchMode> modes;  ///< the enrichment fields (enrichment_modes())
   ExteriorCondition exterior = ExteriorCondition::clamped;
-  /// K_ext [N/m] in mode order: the exterior energy ½ cᵀ K_ext c (zero for clamped).
+  /// K_ext [N/m] in mode order, then the cut's shift if any: the exterior energy ½ cᵀ K_ext c
+  /// (zero for clamped).
   Eigen::MatrixXd exterior_stiffness_N_per_m;
-  /// The response to U_tool = e_x, e_y, e_z: nodal parameters then amplitudes ((3N + m) × 3),
-  /// and the tool force on the tissue (the patch multiplier's resultant) [N/m].
+  /// The cut carries a rigid shift t (three unknowns after the amplitudes, along the frame's
+  /// e₃, e₁, e₂ [m per m of tool displacement]): an organ atlas with cut translations.
+  bool cut_translations = false;
+  /// The response to U_tool = e_x, e_y, e_z: nodal parameters, amplitudes, then the cut's shift
+  /// ((3N + m (+ 3)) × 3), and the tool force on the tissue (the patch multiplier's resultant) [N/m].
   Eigen::MatrixXd unit_response;
   Eigen::Matrix3d tool_stiffness_N_per_m = Eigen::Matrix3d::Zero();
   /// The resultant of the cut's (and clamped surfaces') multipliers per unit U_tool [N/m]:
   /// balances the tool force when the cut is clamped.
   Eigen::Matrix3d cut_reaction_N_per_m = Eigen::Matrix3d::Zero();
-  /// The full stiffness over (u_I, c_m) including K_ext: the energy is ½ xᵀ K x.
+  /// The full stiffness over (u_I, c_m, t) including K_ext: the energy is ½ xᵀ K x.
   Eigen::MatrixXd stiffness;
   /// Diagnostics: counts, conditioning, and what the enrichment carries.
   int volume_points = 0, boundary_points = 0, mls_evaluations = 0, multipliers = 0;
@@ -149,7 +153,10 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
 /// Assembles and solves the model. `cloud` supplies positions (its radii are replaced by
 /// enriched_support_radii); `exterior_stiffness_N_per_m` is required for body_aware (t × t in
 /// mode order over the t = translation_mode_count() translations; the radial and tilt modes'
-/// exterior terms are the half-space's) and ignored otherwise.
+/// exterior terms are the half-space's) and ignored otherwise. A (t + 3) × (t + 3) matrix also
+/// holds the cut translations (organ_atlas.hpp): the model then gains three unknowns, a rigid
+/// shift of the trace on the cut along the frame's e₃, e₁, e₂, which the MLS part takes on there
+/// and the exterior's energy prices (they follow the mode amplitudes in the unknowns).
 EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& material, const ToolContact& contact,
                                    const EnrichedQuadratures& quadratures, const PunchFrame& frame,
                                    const EnrichedSettings& settings, const MlsSettings& mls,

@@ -121,7 +121,8 @@ struct BuildTimes {
 };
 
 /// Where the body-aware exterior stiffness comes from: given the contact, L and the material,
-/// fills K_ext [N/m] (m × m in the enrichment's mode order) or says why it cannot (e.g. no organ
+/// fills K_ext [N/m] (m × m in the enrichment's mode order, or (m + 3) × (m + 3) with the cut's
+/// rigid shift after them: build_enriched_model) or says why it cannot (e.g. no organ
 /// atlas sample near the contact). An organ atlas provides one.
 using ExteriorStiffnessSource =
     std::function<bool(const ToolContact& contact, double local_radius_m, const geometry::Material& material, int modes,

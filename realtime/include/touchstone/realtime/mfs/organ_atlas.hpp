@@ -17,6 +17,13 @@
 /// tangential_1, tangential_2) of the sample's PunchFrame; an atlas made with the normal mode
 /// only holds the 1×1 block. At fixed ν, K_ext ∝ E: a lookup rescales to the model's E.
 ///
+/// Cut translations (optional). The trace c_m ψ_m has the half-space's shape; on a finite organ
+/// the displacement on the cut differs from it mostly by a rigid shift (the clamped base holds
+/// the far field back). An atlas with cut_translations adds three traces, the uniform unit
+/// displacements along the frame's e₃, e₁, e₂ (the punch modes' order), so that the model can
+/// carry u = Σ c_m ψ_m + t on the cut, with the exterior energy ½ [c; t]ᵀ K_ext [c; t]: K_ext
+/// is then (n + 3) × (n + 3), the modes first.
+///
 /// File format (JSON, SI units; unknown keys are ignored, every listed key is required):
 ///   { "format": "touchstone.organ_atlas", "version": 1,
 ///     "organ": text, "axisymmetric_about_z": bool, "modes": "normal" | "all",
@@ -25,9 +32,11 @@
 ///                    "contact_point_m": [x, y, z], "direction": [dx, dy, dz],
 ///                    "frame": { "origin_m": [3], "e1": [3], "e2": [3], "e3": [3] },
 ///                    "tool_radius_m", "local_radius_m", "youngs_modulus_Pa", "poisson_ratio",
-///                    "stiffness_N_per_m": n×n, "half_space_stiffness_N_per_m": n×n,
-///                    "relative_error", "dofs", "seconds" } ] }
-/// with n = 1 ("normal") or 3 ("all"); matrices as arrays of rows.
+///                    "stiffness_N_per_m": s×s, "half_space_stiffness_N_per_m": n×n,
+///                    "relative_error", "dofs", "seconds" } ],
+///     optional "cut_translations": bool (false when absent) }
+/// with n = 1 ("normal") or 3 ("all") and s = n, or n + 3 with cut_translations; matrices as
+/// arrays of rows.
 
 #include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/punch_field.hpp"
@@ -40,6 +49,10 @@
 
 namespace touchstone::realtime::mfs {
 
+/// K_ext of up to three modes and three cut translations [N/m]; the top-left block of the
+/// atlas's matrix size is set, the rest is zero.
+using ExteriorMatrix = Eigen::Matrix<double, 6, 6>;
+
 /// One contact site of the atlas.
 struct OrganAtlasSample {
   std::string label;                                           ///< e.g. "theta=30deg"
@@ -50,9 +63,10 @@ struct OrganAtlasSample {
   double local_radius_m = 0;    ///< L [m]
   double youngs_modulus_Pa = 0; ///< E [Pa] of the solves
   double poisson_ratio = 0;     ///< ν
-  /// K_ext [N/m] in the frame's mode order; only the top-left mode_count × mode_count block is set.
-  Eigen::Matrix3d stiffness_N_per_m = Eigen::Matrix3d::Zero();
-  /// The same on a half-space (closed form), for reference [N/m].
+  /// K_ext [N/m] in the frame's mode order, then the cut translations; only the top-left
+  /// OrganAtlas::matrix_size() block is set.
+  ExteriorMatrix stiffness_N_per_m = ExteriorMatrix::Zero();
+  /// The modes' block on a half-space (closed form), for reference [N/m].
   Eigen::Matrix3d half_space_stiffness_N_per_m = Eigen::Matrix3d::Zero();
   double relative_error = 0;    ///< estimated relative discretisation error of stiffness_N_per_m
   std::size_t dofs = 0;         ///< degrees of freedom of the finest solve
@@ -69,7 +83,9 @@ struct OrganAtlas {
   std::string attachment;
   bool axisymmetric_about_z = false;  ///< the organ (and its attachment) is symmetric about the z axis
   int mode_count = 3;                 ///< 1: normal mode only; 3: all three
+  bool cut_translations = false;      ///< the matrices also hold the three cut translations
   std::vector<OrganAtlasSample> samples;
+  int matrix_size() const { return mode_count + (cut_translations ? 3 : 0); }
 };
 
 /// Reads an atlas file. Throws std::runtime_error naming the file and the key
@@ -114,10 +130,12 @@ enum class OrganAtlasStatus {
 struct OrganAtlasLookup {
   OrganAtlasStatus status = OrganAtlasStatus::no_sample_nearby;
   std::string message;  ///< empty when ok; otherwise what is wrong, with the numbers
-  /// K_ext [N/m] in the mode order of the query's frame PunchFrame::along(·, direction), scaled
-  /// to the query's E; top-left mode_count block.
-  Eigen::Matrix3d stiffness_N_per_m = Eigen::Matrix3d::Zero();
+  /// K_ext [N/m] in the mode order of the query's frame PunchFrame::along(·, direction), then
+  /// its cut translations (along e₃, e₁, e₂) when the atlas has them, scaled to the query's E;
+  /// top-left mode_count (+ 3) block.
+  ExteriorMatrix stiffness_N_per_m = ExteriorMatrix::Zero();
   int mode_count = 0;
+  bool cut_translations = false;
   std::size_t samples_used = 0;
   double nearest_distance_m = 0;  ///< distance to the nearest sample (after the symmetry map)
   double relative_error = 0;      ///< weighted mean of the samples' estimated errors
