@@ -62,7 +62,8 @@ struct OrganAtlasStudy {
   AtlasModes modes = AtlasModes::all;
   /// Also the three uniform translations of the cut (three more solves per mesh): the model's
   /// cut may then shift rigidly against the organ's exterior (realtime organ_atlas.hpp). On by
-  /// default: without them the whole hemisphere's probes came out 3 % off, with them 0.7 %.
+  /// default: on a finite organ the half-space trace alone has the wrong shape on the cut, which
+  /// puts the model's displacements off (docs/enriched_model.md, The cut's rigid shift).
   bool cut_translations = true;
   std::vector<int> refinements{0, 1, 2};      ///< consecutive levels; three or more for Richardson
   /// Depth scaling the trace [m]: the energies are divided by its square, so any value gives the
