@@ -38,6 +38,9 @@ const std::vector<Named<mfs::Weight>> weights{{"quartic_spline", mfs::Weight::qu
 const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverKind::dense_lu},
                                                        {"sparse_lu", mfs::SolverKind::sparse_lu},
                                                        {"gmres_ilut", mfs::SolverKind::gmres_ilut}};
+const std::vector<Named<mfs::VolumetricTerm>> volumetric_terms{{"auto", mfs::VolumetricTerm::automatic},
+                                                               {"full", mfs::VolumetricTerm::full},
+                                                               {"projected", mfs::VolumetricTerm::projected}};
 // "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
 const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
                                                          {"reaction", mfs::ForceMethod::reaction},
@@ -105,6 +108,9 @@ std::vector<Field> make_fields() {
   f.push_back(integer({"enriched", "bonded_patch_dome_from_nodes", "nodes",
                        "a bonded patch also holds its face's dome (T2 of the normal component) from this many nodes"},
                       [](auto& s) -> auto& { return s.enriched.bonded_patch_dome_from_nodes; }));
+  f.push_back(choice({"enriched", "volumetric", "",
+                      "auto (projected from nu = 0.475 on), full (the MLS part's lambda term as is) or projected (onto the nodes' functions and div psi: no locking as nu -> 0.5)"},
+                     volumetric_terms, [](auto& s) -> auto& { return s.enriched.volumetric; }));
 
   f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,
                      [](auto& s) -> auto& { return s.sprinkling.layout; }));

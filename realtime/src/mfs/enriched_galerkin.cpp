@@ -426,6 +426,19 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   const double mean_radius = std::accumulate(cloud.radii.begin(), cloud.radii.end(), 0.0) / static_cast<double>(n_nodes);
   GradientGram gram(static_cast<int>(n_nodes));
+  // The projected volumetric term (VolumetricTerm::projected): Q = span{N_I} ⊕ span{div ψ_m},
+  // G = ∫ q q' and D = ∫ q ∂_i N_J on the volume rule, and λ ∫ (Π div u)² = λ (T D u)ᵀ (T D u)
+  // with G⁻¹ = Tᵀ T. div ψ = tr σ(ψ) / (3λ + 2μ), scaled by L to the size of the N_I.
+  const bool projected = settings.volumetric == VolumetricTerm::projected ||
+                         (settings.volumetric == VolumetricTerm::automatic &&
+                          material.poisson_ratio >= projected_volumetric_from_poisson_ratio);
+  model.volumetric_projected = projected;
+  const Eigen::Index space_size = projected ? n_nodes + m : 0;
+  const double divergence_scale = (quad.cut.points.empty() ? a : (quad.cut.points.front() - contact.point).norm()) /
+                                  (3 * lambda + 2 * mu);
+  Eigen::MatrixXd space_gram = Eigen::MatrixXd::Zero(space_size, space_size);            // G [m³]
+  Eigen::MatrixXd divergence_moments_t = Eigen::MatrixXd::Zero(3 * n_nodes, space_size);  // Dᵀ [m²], columns contiguous
+  std::vector<double> psi_divergence(static_cast<std::size_t>(m));
   for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
     if (!evaluate(quad.volume.points[static_cast<std::size_t>(q)], Derivatives::gradients))
       return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes"
@@ -435,8 +448,61 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
                   ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " +
                   std::to_string(q));
     gram.add(eval.neighbours, eval.gradient, quad.volume.weights[static_cast<std::size_t>(q)]);
+    if (projected) {
+      const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
+      const double w = quad.volume.weights[static_cast<std::size_t>(q)];
+      for (Eigen::Index i = 0; i < m; ++i)
+        psi_divergence[static_cast<std::size_t>(i)] =
+            divergence_scale * punch_field(model.modes[static_cast<std::size_t>(i)], frame, a, material, x).stress_Pa_per_m.trace();
+      const std::vector<int>& nodes = eval.neighbours;
+      for (std::size_t k = 0; k < nodes.size(); ++k) {
+        const double wv = w * eval.value[k];
+        for (std::size_t l = 0; l < nodes.size(); ++l) {
+          space_gram(nodes[k], nodes[l]) += wv * eval.value[l];
+          divergence_moments_t.block<3, 1>(3 * nodes[l], nodes[k]) += wv * eval.gradient[l];
+        }
+        for (Eigen::Index i = 0; i < m; ++i) {
+          const double d = w * psi_divergence[static_cast<std::size_t>(i)];
+          space_gram(n_nodes + i, nodes[k]) += d * eval.value[k];
+          divergence_moments_t.block<3, 1>(3 * nodes[k], n_nodes + i) += d * eval.gradient[k];
+        }
+      }
+      for (Eigen::Index i = 0; i < m; ++i)
+        for (Eigen::Index j = 0; j <= i; ++j)
+          space_gram(n_nodes + i, n_nodes + j) += w * psi_divergence[static_cast<std::size_t>(i)] * psi_divergence[static_cast<std::size_t>(j)];
+    }
   }
-  gram.add_isotropic_stiffness(lambda, mu, K);
+  gram.add_isotropic_stiffness(projected ? 0.0 : lambda, mu, K);
+  if (projected) {
+    // The ψ rows of G were summed below the diagonal only.
+    space_gram.triangularView<Eigen::StrictlyUpper>() = space_gram.transpose().triangularView<Eigen::StrictlyUpper>();
+    // T D with G⁻¹ = Tᵀ T: by Cholesky (T = L⁻¹); if the rule cannot tell div ψ from the span of
+    // the N_I (G singular to rounding), by the eigen-decomposition with that direction dropped.
+    Eigen::MatrixXd projected_moments;
+    const Eigen::LLT<Eigen::MatrixXd> cholesky(space_gram);
+    const Eigen::VectorXd diagonal = space_gram.diagonal();
+    bool well_posed = cholesky.info() == Eigen::Success;
+    if (well_posed) {
+      const Eigen::VectorXd pivots = cholesky.matrixLLT().diagonal();
+      for (Eigen::Index j = 0; j < space_size && well_posed; ++j) well_posed = pivots[j] * pivots[j] > 1e-12 * diagonal[j];
+    }
+    if (well_posed) {
+      projected_moments = cholesky.matrixL().solve(divergence_moments_t.transpose());
+    } else {
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(space_gram);
+      const double largest = eigen.eigenvalues().maxCoeff();
+      Eigen::Index kept = 0;
+      projected_moments.resize(space_size, 3 * n_nodes);
+      for (Eigen::Index j = 0; j < space_size; ++j)
+        if (eigen.eigenvalues()[j] > 1e-12 * largest)
+          projected_moments.row(kept++) =
+              (divergence_moments_t * eigen.eigenvectors().col(j)).transpose() / std::sqrt(eigen.eigenvalues()[j]);
+      projected_moments.conservativeResize(kept, Eigen::NoChange);
+    }
+    Eigen::MatrixXd volumetric = Eigen::MatrixXd::Zero(3 * n_nodes, 3 * n_nodes);
+    volumetric.selfadjointView<Eigen::Lower>().rankUpdate(projected_moments.transpose(), lambda);
+    K.topLeftCorner(3 * n_nodes, 3 * n_nodes) += volumetric.selfadjointView<Eigen::Lower>();
+  }
   model.volume_points = static_cast<int>(quad.volume.points.size());
 
   // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the

@@ -61,6 +61,23 @@ std::string to_string(ExteriorCondition exterior);
 /// "clamped" | "half_space" | "body_aware"; throws std::invalid_argument listing them.
 ExteriorCondition exterior_condition_from_string(const std::string& name);
 
+/// How the MLS part's volumetric energy λ ∫ (div u)² is integrated.
+enum class VolumetricTerm : std::uint8_t {
+  /// projected from ν = projected_volumetric_from_poisson_ratio on, full below (the default)
+  automatic,
+  full,  ///< as is, on the volume rule
+  /// div of the MLS part projected (L2, on the volume rule) onto span{N_I} ⊕ span{div ψ_m}: one
+  /// volumetric constraint per node instead of one per volume point, so the MLS part does not
+  /// lock as ν → 0.5. With div ψ_m in the space the projection leaves the ψ–MLS coupling as it
+  /// is, so the model's energy stays a sum of squares and half-space exactness holds.
+  projected,
+};
+
+/// VolumetricTerm::automatic projects from this Poisson's ratio on: close to incompressibility the
+/// full term locks the MLS part (+1.2 … +1.6 % on B3 at ν = 0.49, N = 26 … 54), while at ν ≤ 0.45
+/// the projection moves the force by less than the model's own error and costs build time.
+constexpr double projected_volumetric_from_poisson_ratio = 0.475;
+
 struct EnrichedSettings {
   ExteriorCondition exterior = ExteriorCondition::body_aware;
   /// Support radius r_J = the distance to the node's support_neighbours-th nearest node.
@@ -82,6 +99,8 @@ struct EnrichedSettings {
   /// A bonded patch holds the normal displacement's even Chebyshev mode T₂(r/a)/√(a² − r²) too
   /// (a dome of the face) from this many nodes on; fewer nodes cannot hold it without locking.
   int bonded_patch_dome_from_nodes = 50;
+  /// The MLS part's volumetric term λ ∫ (div u)² (VolumetricTerm).
+  VolumetricTerm volumetric = VolumetricTerm::automatic;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -105,6 +124,8 @@ struct EnrichedModel {
   /// The cut carries a rigid shift t (three unknowns after the amplitudes, along the frame's
   /// e₃, e₁, e₂ [m per m of tool displacement]): an organ atlas with cut translations.
   bool cut_translations = false;
+  /// The MLS part's volumetric term was projected (VolumetricTerm).
+  bool volumetric_projected = false;
   /// The response to U_tool = e_x, e_y, e_z: nodal parameters, amplitudes, then the cut's shift
   /// ((3N + m (+ 3)) × 3), and the tool force on the tissue (the patch multiplier's resultant) [N/m].
   Eigen::MatrixXd unit_response;
