@@ -150,7 +150,7 @@ TEST(ShippedStudies, StabilityAndPoissonCoverTheirRangesInOneFile) {
     grazing = grazing || q.angle_to_normal_rad() >= 60 * M_PI / 180 - 1e-12;
   }
   EXPECT_DOUBLE_EQ(nu_max, 0.499);
-  // Closer to ν = 0.5 P2 locks on every affordable level: there the reference is the mixed form.
+  // Closer to ν = 0.5 P2 locks strongly: there the reference is the mixed form.
   for (const auto& p : stability.problems)
     if (p.problem.material.poisson_ratio >= 0.499) {
       EXPECT_EQ(p.reference.solver.formulation, touchstone::fem::Formulation::mixed_p0disc) << p.name;

@@ -74,8 +74,8 @@ enum class VolumetricTerm : std::uint8_t {
 };
 
 /// VolumetricTerm::automatic projects from this Poisson's ratio on: close to incompressibility the
-/// full term locks the MLS part (+1.2 … +1.6 % on B3 at ν = 0.49, N = 26 … 54), while at ν ≤ 0.45
-/// the projection moves the force by less than the model's own error and costs build time.
+/// full term locks the MLS part, while further from it the projection changes the force by less
+/// than the model's own error and costs build time (figures: docs/enriched_model.md).
 constexpr double projected_volumetric_from_poisson_ratio = 0.475;
 
 struct EnrichedSettings {
