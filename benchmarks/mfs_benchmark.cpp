@@ -126,7 +126,7 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
   contact.condition = condition;
   const Material material = tissue();
   double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0;
-  double nodes = 0, extra_points = 0, stiffness_zz = 0, mls_evaluations = 0;
+  double nodes = 0, extra_points = 0, stiffness_zz = 0, mls_evaluations = 0, point_nodes = 0;
   for (auto _ : state) {
     LocalModel model;
     try {
@@ -148,6 +148,7 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
     extra_points = static_cast<double>(model.cloud.extra_points.size());
     stiffness_zz = model.tool_stiffness_N_per_m(2, 2);
     mls_evaluations = model.enriched.mls_evaluations;
+    point_nodes = model.enriched.mean_volume_point_nodes;
   }
   state.counters["N"] = nodes;
   state.counters["extra"] = extra_points;
@@ -159,6 +160,8 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
   state.counters["factorize_ms"] = per_iteration(1e3 * factorize_s);
   state.counters["condense_ms"] = per_iteration(1e3 * condense_s);
   if (mls_evaluations > 0) state.counters["mls_evaluations"] = mls_evaluations;
+  // Nodes per volume point: near N the MLS part is dense (its cost grows as N² per point).
+  if (point_nodes > 0) state.counters["nodes_per_volume_point"] = point_nodes;
 }
 
 void build(benchmark::State& state, const LocalModelSettings& settings) {

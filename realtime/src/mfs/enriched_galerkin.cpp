@@ -448,6 +448,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
                   ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " +
                   std::to_string(q));
     gram.add(eval.neighbours, eval.gradient, quad.volume.weights[static_cast<std::size_t>(q)]);
+    model.mean_volume_point_nodes += static_cast<double>(eval.neighbours.size());
     if (projected) {
       const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
       const double w = quad.volume.weights[static_cast<std::size_t>(q)];
@@ -504,6 +505,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     K.topLeftCorner(3 * n_nodes, 3 * n_nodes) += volumetric.selfadjointView<Eigen::Lower>();
   }
   model.volume_points = static_cast<int>(quad.volume.points.size());
+  model.mean_volume_point_nodes /= static_cast<double>(std::max(model.volume_points, 1));
 
   // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
   // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n.

@@ -53,6 +53,7 @@ ToolContact top_contact(geometry::ContactCondition condition) {
 struct Built {
   EnrichedModel model;
   NodeCloud cloud;
+  EnrichedQuadratures quadratures;
 };
 
 Built build(const geometry::TriangleSurface& organ, const ToolContact& contact, int nodes, ExteriorCondition exterior,
@@ -64,11 +65,10 @@ Built build(const geometry::TriangleSurface& organ, const ToolContact& contact, 
   EnrichedSettings settings;
   settings.exterior = exterior;
   settings.volumetric = volumetric;
-  EnrichedQuadratures quadratures;
   PunchFrame frame;
   std::string failure;
-  EXPECT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
-  out.model = build_enriched_model(out.cloud, material, contact, quadratures, frame, settings,
+  EXPECT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, out.quadratures, frame, failure)) << failure;
+  out.model = build_enriched_model(out.cloud, material, contact, out.quadratures, frame, settings,
                                    MlsSettings{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0});
   return out;
 }
@@ -293,6 +293,25 @@ TEST(EnrichedGalerkin, HemisphereBondedToolBalancesTheCut) {
 // rim, it must equal ∫ σ(ψ)∇N_I dV. The MLS functions are only C² (piecewise: their supports'
 // edges cross the box), so tensor Gauss converges slowly: with 20 points per direction the two
 // forms agree to 8e-4 of the largest coupling (asserted: 2e-3).
+// The density diagnostic counts what the supports reach: the mean over the volume rule of the
+// nodes within their support radius, counted here by brute force on the same cloud.
+TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
+  for (const int nodes : {30, 200}) {
+    const Built b = build(flat_body(), top_contact(geometry::ContactCondition::frictionless), nodes, ExteriorCondition::half_space);
+    ASSERT_TRUE(b.model.ok()) << b.model.status;
+    ASSERT_EQ(b.model.max_support_scale, 1.0) << "no support grew, so the radii are the ones every point used";
+    const std::vector<Eigen::Vector3d>& points = b.quadratures.volume.points;
+    double seen = 0;
+    for (const Eigen::Vector3d& x : points)
+      for (std::size_t j = 0; j < b.cloud.size(); ++j) seen += (b.cloud.positions[j] - x).norm() < b.cloud.radii[j] ? 1 : 0;
+    const double expected = seen / static_cast<double>(points.size());
+    std::printf("N = %zu: %.2f nodes per volume point\n", b.cloud.size(), b.model.mean_volume_point_nodes);
+    EXPECT_NEAR(b.model.mean_volume_point_nodes, expected, 1e-9 * expected);
+    EXPECT_GE(b.model.mean_volume_point_nodes, EnrichedSettings{}.min_point_neighbours);
+    EXPECT_LE(b.model.mean_volume_point_nodes, static_cast<double>(b.cloud.size()));
+  }
+}
+
 TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
   NodeCloud cloud = sprinkle_even_nodes(flat_body(), contact, 60, length, 1);

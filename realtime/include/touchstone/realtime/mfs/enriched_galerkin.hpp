@@ -137,6 +137,9 @@ struct EnrichedModel {
   Eigen::MatrixXd stiffness;
   /// Diagnostics: counts, conditioning, and what the enrichment carries.
   int volume_points = 0, boundary_points = 0, mls_evaluations = 0, multipliers = 0;
+  /// Nodes seen per volume point, averaged over the volume rule. Near N the MLS part is dense
+  /// and its assembly costs (volume points) × N², whatever is done per point.
+  double mean_volume_point_nodes = 0;
   double min_rcond = 1, max_support_scale = 1;
   double kkt_relative_residual = 0;
   std::string status = "ok";
