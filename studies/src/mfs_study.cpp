@@ -18,6 +18,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <climits>
 #include <cmath>
@@ -28,6 +29,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace touchstone::studies {
 namespace fs = std::filesystem;
@@ -161,6 +163,7 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"multipliers", e.multipliers},
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},
+          {"mean_volume_point_nodes", json_number(e.mean_volume_point_nodes)},
           {"boundary_points", e.boundary_points},
           {"kkt_relative_residual", json_number(e.kkt_relative_residual)}};
 }
@@ -233,6 +236,21 @@ class CaseRunner {
   void solve(json& c, const mfs::ToolContact& contact, const mfs::LocalModelSettings& settings) const {
     const mfs::LocalModel model =
         mfs::build_local_model(organ_.surface, contact, study_.material, settings, organ_.clamped, exterior_source());
+    // The build time is the median of repeated builds of the same model: the first build in a
+    // process runs on cold caches and reads slower than the steady state that the model loop
+    // sees and mfs_benchmark measures. Up to five builds, stopping once they have taken a
+    // quarter of a second, so that the slow formulations are still built once.
+    constexpr std::size_t max_build_samples = 5;
+    constexpr double build_timing_budget_s = 0.25;
+    std::vector<mfs::BuildTimes> builds{model.times};
+    for (double spent = model.times.total_s; model.ok() && builds.size() < max_build_samples && spent < build_timing_budget_s;) {
+      const mfs::LocalModel again =
+          mfs::build_local_model(organ_.surface, contact, study_.material, settings, organ_.clamped, exterior_source());
+      builds.push_back(again.times);
+      spent += again.times.total_s;
+    }
+    std::sort(builds.begin(), builds.end(), [](const mfs::BuildTimes& l, const mfs::BuildTimes& r) { return l.total_s < r.total_s; });
+    const mfs::BuildTimes& build_times = builds[(builds.size() - 1) / 2];
     const mfs::NodeCloud& cloud = model.cloud;
     json& params = c["params"];
     params["node_count"] = cloud.size();
@@ -254,15 +272,17 @@ class CaseRunner {
                         {"mean_neighbours", json_number(model.system.status.mean_neighbours)},
                         {"clamped_quadrature_points", model.clamped_points}};
     json& time = c["time_s"];
-    time["sprinkle"] = model.times.sprinkle_s;
-    time["assembly"] = model.times.assembly_s;
-    time["factorize"] = model.times.factorize_s;
-    time["condense"] = model.times.condense_s;
+    time["sprinkle"] = build_times.sprinkle_s;
+    time["assembly"] = build_times.assembly_s;
+    time["factorize"] = build_times.factorize_s;
+    time["condense"] = build_times.condense_s;
     time["force_diagnostics"] = model.times.diagnostics_s;  // the traction integral when not haptic; not in "build"
     // One build serves every tool displacement (the factorisation and K_t are part of it), so
     // "solve" is what a new U_tool costs: combining the stored unit responses.
-    time["build"] = model.times.total_s;
-    time["total"] = model.times.total_s;
+    time["build"] = build_times.total_s;
+    time["build_samples"] = builds.size();
+    time["build_first"] = model.times.total_s;
+    time["total"] = build_times.total_s;
 
     const std::string vtu_name = c["id"].get<std::string>() + ".vtu";
     if (!model.ok()) {
@@ -275,7 +295,7 @@ class CaseRunner {
     const mfs::LocalSolution solution = mfs::solve_local_model(model, tool_displacement);
     time["solve"] = solution.solve_s;
     time["force"] = solution.force_s;
-    time["total"] = model.times.total_s + solution.solve_s + solution.force_s;
+    time["total"] = build_times.total_s + solution.solve_s + solution.force_s;
     if (solution.status != "ok") {
       c["status"] = solution.status;
       write_vtu(c, cloud, {}, vtu_name);

@@ -130,6 +130,15 @@ TEST_F(MfsStudyRun, ResultsJsonCarriesTheContract) {
       ASSERT_TRUE(c.at("time_s").at(key).is_number()) << key;
       EXPECT_GE(c.at("time_s").at(key).get<double>(), 0.0) << key;
     }
+    // The build time is the median of up to five builds, repeated while they have taken less
+    // than 0.25 s: a second build exactly when the first took less than that.
+    const json& time = c.at("time_s");
+    const int samples = time.at("build_samples").get<int>();
+    EXPECT_GE(samples, 1);
+    EXPECT_LE(samples, 5);
+    EXPECT_EQ(samples >= 2, time.at("build_first").get<double>() < 0.25);
+    EXPECT_NEAR(time.at("total").get<double>(),
+                time.at("build").get<double>() + time.at("solve").get<double>() + time.at("force").get<double>(), 1e-12);
 
     const json& params = c.at("params");
     EXPECT_EQ(params.at("node_count_requested"), requested[i]);
