@@ -289,10 +289,6 @@ TEST(EnrichedGalerkin, HemisphereBondedToolBalancesTheCut) {
   }
 }
 
-// The MLS–ψ coupling is assembled as ∮ N_I σ(ψ)n dA; on a box inside the body, away from the
-// rim, it must equal ∫ σ(ψ)∇N_I dV. The MLS functions are only C² (piecewise: their supports'
-// edges cross the box), so tensor Gauss converges slowly: with 20 points per direction the two
-// forms agree to 8e-4 of the largest coupling (asserted: 2e-3).
 // The density diagnostic counts what the supports reach: the mean over the volume rule of the
 // nodes within their support radius, counted here by brute force on the same cloud.
 TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
@@ -312,6 +308,10 @@ TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
   }
 }
 
+// The MLS–ψ coupling is assembled as ∮ N_I σ(ψ)n dA; on a box inside the body, away from the
+// rim, it must equal ∫ σ(ψ)∇N_I dV. The MLS functions are only C² (piecewise: their supports'
+// edges cross the box), so tensor Gauss converges slowly: with 20 points per direction the two
+// forms agree to 8e-4 of the largest coupling (asserted: 2e-3).
 TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
   NodeCloud cloud = sprinkle_even_nodes(flat_body(), contact, 60, length, 1);
