@@ -109,8 +109,11 @@ std::vector<Field> make_fields() {
                        "a bonded patch also holds its face's dome (T2 of the normal component) from this many nodes"},
                       [](auto& s) -> auto& { return s.enriched.bonded_patch_dome_from_nodes; }));
   f.push_back(choice({"enriched", "volumetric", "",
-                      "auto (projected from nu = 0.475 on), full (the MLS part's lambda term as is) or projected (onto the nodes' functions and div psi: no locking as nu -> 0.5)"},
+                      "auto (projected from nu = 0.475 on), full (the MLS part's lambda term as is) or projected (onto linear polynomials or the nodes' functions, and div psi: no locking as nu -> 0.5)"},
                      volumetric_terms, [](auto& s) -> auto& { return s.enriched.volumetric; }));
+  f.push_back(integer({"enriched", "volumetric_linear_space_up_to_nodes", "nodes",
+                       "the projected volumetric term's space: linear polynomials and div psi up to this many nodes, the nodes' functions beyond"},
+                      [](auto& s) -> auto& { return s.enriched.volumetric_linear_space_up_to_nodes; }));
 
   f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,
                      [](auto& s) -> auto& { return s.sprinkling.layout; }));

@@ -160,6 +160,7 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"cut_shift_per_depth", shift},
           {"mls_energy_share", json_number(total > 0 ? mls_energy / total : 0.0)},
           {"volumetric_projected", e.volumetric_projected},
+          {"volumetric_space", e.volumetric_space},
           {"multipliers", e.multipliers},
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},

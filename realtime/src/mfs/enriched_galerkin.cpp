@@ -191,6 +191,7 @@ void EnrichedSettings::validate() const {
   check("cut_azimuth_points", cut_azimuth_points, 4, 256);
   check("cut_multiplier_degree", cut_multiplier_degree, -1, 4);
   check("bonded_patch_dome_from_nodes", bonded_patch_dome_from_nodes, 0, 1000000);
+  check("volumetric_linear_space_up_to_nodes", volumetric_linear_space_up_to_nodes, 0, 1000000);
 }
 
 std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& nodes,
@@ -426,16 +427,20 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
   const double mean_radius = std::accumulate(cloud.radii.begin(), cloud.radii.end(), 0.0) / static_cast<double>(n_nodes);
   GradientGram gram(static_cast<int>(n_nodes));
-  // The projected volumetric term (VolumetricTerm::projected): Q = span{N_I} ⊕ span{div ψ_m},
+  // The projected volumetric term (VolumetricTerm::projected): Q = P ⊕ span{div ψ_m}, P the
+  // linear polynomials in (x − c)/L on small clouds and span{N_I} on larger ones;
   // G = ∫ q q' and D = ∫ q ∂_i N_J on the volume rule, and λ ∫ (Π div u)² = λ (T D u)ᵀ (T D u)
   // with G⁻¹ = Tᵀ T. div ψ = tr σ(ψ) / (3λ + 2μ), scaled by L to the size of the N_I.
   const bool projected = settings.volumetric == VolumetricTerm::projected ||
                          (settings.volumetric == VolumetricTerm::automatic &&
                           material.poisson_ratio >= projected_volumetric_from_poisson_ratio);
   model.volumetric_projected = projected;
-  const Eigen::Index space_size = projected ? n_nodes + m : 0;
-  const double divergence_scale = (quad.cut.points.empty() ? a : (quad.cut.points.front() - contact.point).norm()) /
-                                  (3 * lambda + 2 * mu);
+  const bool linear_space = n_nodes <= settings.volumetric_linear_space_up_to_nodes;
+  model.volumetric_space = !projected ? "" : linear_space ? "linear" : "nodal";
+  const Eigen::Index polynomial_terms = 4, space_functions = linear_space ? polynomial_terms : n_nodes;
+  const Eigen::Index space_size = projected ? space_functions + m : 0;
+  const double cut_distance = quad.cut.points.empty() ? a : (quad.cut.points.front() - contact.point).norm();
+  const double divergence_scale = cut_distance / (3 * lambda + 2 * mu);
   Eigen::MatrixXd space_gram = Eigen::MatrixXd::Zero(space_size, space_size);            // G [m³]
   Eigen::MatrixXd divergence_moments_t = Eigen::MatrixXd::Zero(3 * n_nodes, space_size);  // Dᵀ [m²], columns contiguous
   std::vector<double> psi_divergence(static_cast<std::size_t>(m));
@@ -456,21 +461,38 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
         psi_divergence[static_cast<std::size_t>(i)] =
             divergence_scale * punch_field(model.modes[static_cast<std::size_t>(i)], frame, a, material, x).stress_Pa_per_m.trace();
       const std::vector<int>& nodes = eval.neighbours;
-      for (std::size_t k = 0; k < nodes.size(); ++k) {
-        const double wv = w * eval.value[k];
-        for (std::size_t l = 0; l < nodes.size(); ++l) {
-          space_gram(nodes[k], nodes[l]) += wv * eval.value[l];
-          divergence_moments_t.block<3, 1>(3 * nodes[l], nodes[k]) += wv * eval.gradient[l];
+      if (linear_space) {
+        const Eigen::Vector3d xi = (x - contact.point) / cut_distance;
+        const Eigen::Vector4d q(1.0, xi.x(), xi.y(), xi.z());
+        for (Eigen::Index k = 0; k < polynomial_terms; ++k) {
+          for (Eigen::Index l = 0; l <= k; ++l) space_gram(k, l) += w * q[k] * q[l];
+          for (Eigen::Index i = 0; i < m; ++i) space_gram(polynomial_terms + i, k) += w * psi_divergence[static_cast<std::size_t>(i)] * q[k];
         }
-        for (Eigen::Index i = 0; i < m; ++i) {
-          const double d = w * psi_divergence[static_cast<std::size_t>(i)];
-          space_gram(n_nodes + i, nodes[k]) += d * eval.value[k];
-          divergence_moments_t.block<3, 1>(3 * nodes[k], n_nodes + i) += d * eval.gradient[k];
+        for (std::size_t l = 0; l < nodes.size(); ++l) {
+          for (Eigen::Index k = 0; k < polynomial_terms; ++k)
+            divergence_moments_t.block<3, 1>(3 * nodes[l], k) += w * q[k] * eval.gradient[l];
+          for (Eigen::Index i = 0; i < m; ++i)
+            divergence_moments_t.block<3, 1>(3 * nodes[l], polynomial_terms + i) +=
+                w * psi_divergence[static_cast<std::size_t>(i)] * eval.gradient[l];
+        }
+      } else {
+        for (std::size_t k = 0; k < nodes.size(); ++k) {
+          const double wv = w * eval.value[k];
+          for (std::size_t l = 0; l < nodes.size(); ++l) {
+            space_gram(nodes[k], nodes[l]) += wv * eval.value[l];
+            divergence_moments_t.block<3, 1>(3 * nodes[l], nodes[k]) += wv * eval.gradient[l];
+          }
+          for (Eigen::Index i = 0; i < m; ++i) {
+            const double d = w * psi_divergence[static_cast<std::size_t>(i)];
+            space_gram(n_nodes + i, nodes[k]) += d * eval.value[k];
+            divergence_moments_t.block<3, 1>(3 * nodes[k], n_nodes + i) += d * eval.gradient[k];
+          }
         }
       }
       for (Eigen::Index i = 0; i < m; ++i)
         for (Eigen::Index j = 0; j <= i; ++j)
-          space_gram(n_nodes + i, n_nodes + j) += w * psi_divergence[static_cast<std::size_t>(i)] * psi_divergence[static_cast<std::size_t>(j)];
+          space_gram(space_functions + i, space_functions + j) +=
+              w * psi_divergence[static_cast<std::size_t>(i)] * psi_divergence[static_cast<std::size_t>(j)];
     }
   }
   gram.add_isotropic_stiffness(projected ? 0.0 : lambda, mu, K);

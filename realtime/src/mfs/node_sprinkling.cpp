@@ -385,7 +385,6 @@ NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& co
   const double spacing = std::cbrt(2.0 / 3.0 * pi * length * length * length / node_count);
   const int surface_count = std::max(4, static_cast<int>(std::lround(0.25 * node_count)));
   const int cut_count = std::max(3, static_cast<int>(std::lround(0.2 * node_count)));
-  const int inner_count = std::max(3, node_count - surface_count - cut_count);
 
   NodeCloud cloud;
   const auto add = [&](const Eigen::Vector3d& x, NodeKind kind, const Eigen::Vector3d& n) {
@@ -417,7 +416,10 @@ NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& co
     const Eigen::Vector3d x = centre + length * d;
     if (surface.inside(x, 0.5 * spacing)) add(x, NodeKind::cut, d);
   }
-  // Inside: Halton points in the ball, uniform in volume, off the surface and the cut.
+  // Inside: Halton points in the ball, uniform in volume, off the surface and the cut. They make
+  // up the count: the spiral's outer ring and the cut lattice lose the nodes that fall outside
+  // the organ or within half a spacing of the cut (about a tenth of N on a flat organ).
+  const int inner_count = std::max(3, node_count - static_cast<int>(cloud.size()));
   const int start = 1 + static_cast<int>(seed % 997) * 64;
   for (int k = 0, kept = 0; kept < inner_count && k < 8 * inner_count; ++k) {
     const double rho = (length - 0.5 * spacing) * std::cbrt(halton(start + k, 2));

@@ -224,14 +224,17 @@ TEST(EnrichedGalerkin, ProjectedVolumetricTermKeepsTheHalfSpaceExact) {
     std::printf("half-space, nu = 0.49, projected: N = %zu  k/k_exact - 1 = %+.1e\n", b.cloud.size(),
                 b.model.tool_stiffness_N_per_m(2, 2) / exact - 1);
     EXPECT_NEAR(b.model.tool_stiffness_N_per_m(2, 2) / exact, 1.0, 1e-3) << "N = " << b.cloud.size();
+    // Both projection spaces: the linear polynomials on small clouds, the nodes' functions beyond.
+    EXPECT_EQ(b.model.volumetric_space, b.cloud.size() <= 60 ? "linear" : "nodal") << "N = " << b.cloud.size();
   }
 }
 
 // Near incompressibility the MLS part's volumetric term locks (one constraint per volume point).
-// Projected onto the nodes' functions and div ψ it is a smaller quadratic form, so the model can
-// only get softer (Rayleigh–Ritz); on B3 at ν = 0.49 it comes within 1 % of the converged FEM
-// (24.600 mN, displacement P2 ladder, ± 0.48 %) at N = 39 … 54, where the full term is 1.0 … 1.4 %
-// too stiff. Tolerance: the FEM's own uncertainty plus the test's coarser organ mesh, 1 %.
+// Projected (at these N onto the linear polynomials and div ψ) it is a smaller quadratic form, so
+// the model can only get softer (Rayleigh–Ritz); on B3 at ν = 0.49 it comes within 1 % of the
+// converged FEM (24.600 mN, displacement P2 ladder, ± 0.48 %) at N = 45 and 60, where the full
+// term is 1.0 … 1.4 % too stiff. Tolerance: the FEM's own uncertainty plus the test's coarser
+// organ mesh, 1 %.
 TEST(EnrichedGalerkin, ProjectedVolumetricTermUnlocksTheMlsPartNearIncompressibility) {
   geometry::Material material;
   material.poisson_ratio = 0.49;
@@ -310,8 +313,8 @@ TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
 
 // The MLS–ψ coupling is assembled as ∮ N_I σ(ψ)n dA; on a box inside the body, away from the
 // rim, it must equal ∫ σ(ψ)∇N_I dV. The MLS functions are only C² (piecewise: their supports'
-// edges cross the box), so tensor Gauss converges slowly: with 20 points per direction the two
-// forms agree to 8e-4 of the largest coupling (asserted: 2e-3).
+// edges cross the box), so tensor Gauss converges slowly: the two forms agree to 3e-3 of the
+// largest coupling with 20 points per direction and to 9e-5 with 40 (asserted: 5e-4).
 TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
   NodeCloud cloud = sprinkle_even_nodes(flat_body(), contact, 60, length, 1);
@@ -324,14 +327,14 @@ TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   MlsEvaluation eval;
   const std::size_t n = cloud.size();
   std::vector<Eigen::Vector3d> volume(n, Eigen::Vector3d::Zero()), boundary(n, Eigen::Vector3d::Zero());
-  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_volume_rule(low, high, 20)) {
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_volume_rule(low, high, 40)) {
     evaluate_mls(q.position_m, cloud.positions, cloud.radii, {}, mls, Derivatives::gradients, eval);
     ASSERT_EQ(eval.status, MlsStatus::ok);
     const Eigen::Matrix3d stress = punch_field(PunchMode::normal, frame, a, material, q.position_m).stress_Pa_per_m;
     for (std::size_t b = 0; b < eval.neighbours.size(); ++b)
       volume[static_cast<std::size_t>(eval.neighbours[b])] += q.weight * stress * eval.gradient[b];
   }
-  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_surface_rule(low, high, 20)) {
+  for (const touchstone::testing::BoxPoint& q : touchstone::testing::box_surface_rule(low, high, 40)) {
     evaluate_mls(q.position_m, cloud.positions, cloud.radii, {}, mls, Derivatives::values, eval);
     ASSERT_EQ(eval.status, MlsStatus::ok);
     const Eigen::Vector3d traction =
@@ -344,7 +347,7 @@ TEST(EnrichedGalerkin, MlsCouplingBoundaryFormEqualsVolumeIntegral) {
   for (std::size_t I = 0; I < n; ++I) worst = std::max(worst, (volume[I] - boundary[I]).norm());
   std::printf("MLS-psi coupling: largest %.4e, worst difference %.3e (relative %.2e)\n", largest, worst, worst / largest);
   EXPECT_GT(largest, 0);
-  EXPECT_LT(worst, 2e-3 * largest);
+  EXPECT_LT(worst, 5e-4 * largest);
 }
 
 // Bad input and hard contacts end in a named error or a status, never in NaN.

@@ -66,10 +66,11 @@ enum class VolumetricTerm : std::uint8_t {
   /// projected from ν = projected_volumetric_from_poisson_ratio on, full below (the default)
   automatic,
   full,  ///< as is, on the volume rule
-  /// div of the MLS part projected (L2, on the volume rule) onto span{N_I} ⊕ span{div ψ_m}: one
-  /// volumetric constraint per node instead of one per volume point, so the MLS part does not
-  /// lock as ν → 0.5. With div ψ_m in the space the projection leaves the ψ–MLS coupling as it
-  /// is, so the model's energy stays a sum of squares and half-space exactness holds.
+  /// div of the MLS part projected (L2, on the volume rule) onto P ⊕ span{div ψ_m}, P the linear
+  /// polynomials up to EnrichedSettings::volumetric_linear_space_up_to_nodes nodes and span{N_I}
+  /// beyond: a few volumetric constraints instead of one per volume point, so the MLS part does
+  /// not lock as ν → 0.5. With div ψ_m in the space the projection leaves the ψ–MLS coupling as
+  /// it is, so the model's energy stays a sum of squares and half-space exactness holds.
   projected,
 };
 
@@ -101,6 +102,11 @@ struct EnrichedSettings {
   int bonded_patch_dome_from_nodes = 50;
   /// The MLS part's volumetric term λ ∫ (div u)² (VolumetricTerm).
   VolumetricTerm volumetric = VolumetricTerm::automatic;
+  /// The projected term's space holds the linear polynomials (4 constraints) up to this many
+  /// nodes and the nodes' own functions (N constraints) beyond: few nodes make nearly global
+  /// shape functions, which N constraints lock; many nodes make local ones, whose divergence a
+  /// global polynomial cannot hold, so they come out too soft.
+  int volumetric_linear_space_up_to_nodes = 60;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -124,8 +130,10 @@ struct EnrichedModel {
   /// The cut carries a rigid shift t (three unknowns after the amplitudes, along the frame's
   /// e₃, e₁, e₂ [m per m of tool displacement]): an organ atlas with cut translations.
   bool cut_translations = false;
-  /// The MLS part's volumetric term was projected (VolumetricTerm).
+  /// The MLS part's volumetric term was projected (VolumetricTerm), onto which space: "linear"
+  /// or "nodal" ("" when not projected).
   bool volumetric_projected = false;
+  std::string volumetric_space;
   /// The response to U_tool = e_x, e_y, e_z: nodal parameters, amplitudes, then the cut's shift
   /// ((3N + m (+ 3)) × 3), and the tool force on the tissue (the patch multiplier's resultant) [N/m].
   Eigen::MatrixXd unit_response;

@@ -65,8 +65,10 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
 /// carry the rim), so the nodes are spread evenly instead of graded toward the patch edge, and
 /// placed in one pass (no search for the spacing): a sunflower spiral on the organ surface
 /// around the contact (the tip node first), a Fibonacci lattice on the cut sphere and Halton
-/// points inside, each kept where it lies in the organ. About `node_count` nodes for a locally
-/// flat organ (fewer where the ball holds less organ); 25 % on the surface, 20 % on the cut.
+/// points inside, each kept where it lies in the organ. Up to 25 % of the nodes on the surface
+/// and 20 % on the cut; the interior points make up what those lose, so the cloud has exactly
+/// `node_count` nodes unless the ball holds too little organ for them (the Halton sequence is
+/// tried for 8× the interior count).
 /// Throws std::invalid_argument for node_count outside [10, 5000] and for the contact
 /// problems sprinkle_nodes names.
 NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact, int node_count,
