@@ -311,6 +311,70 @@ TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
   }
 }
 
+// The patch test with the enrichment present: nodal values u_I = G x_I + c make the MLS part the
+// affine field exactly (quadratic MLS reproduces it with its gradient), so its strain is constant
+// at every volume point and the MLS–MLS energy must be ½ V ε:C:ε with V the volume rule's own
+// volume, to rounding; with the projected volumetric term too (a constant divergence lies in both
+// projection spaces). The singular fields' rows, ∫ ε(u):σ(ψ_m) dV taken as ∮ u·σ(ψ_m)n dA, must
+// be the affine field's boundary form on the model's own boundary points, to rounding. (How well
+// that boundary form equals the volume integral is MlsCouplingBoundaryFormEqualsVolumeIntegral's
+// question.)
+TEST(EnrichedGalerkin, AffineFieldPassesThePatchTestWithTheEnrichmentPresent) {
+  Eigen::Matrix3d gradient;
+  gradient << 2.0e-3, -1.0e-3, 0.5e-3, 0.7e-3, -1.5e-3, 1.2e-3, -0.4e-3, 0.9e-3, 1.0e-3;
+  const Eigen::Vector3d offset(1.0e-5, -2.0e-5, 3.0e-5);
+  const Eigen::Matrix3d strain = 0.5 * (gradient + gradient.transpose());
+  struct Case {
+    const geometry::TriangleSurface* organ;
+    ToolContact contact;
+    ExteriorCondition exterior;
+    double poisson_ratio;
+    int nodes;
+  };
+  const std::vector<Case> cases{
+      {&flat_body(), top_contact(geometry::ContactCondition::frictionless), ExteriorCondition::half_space, 0.45, 30},
+      {&testing::hemisphere(), testing::pole_contact(), ExteriorCondition::clamped, 0.45, 60},
+      {&testing::hemisphere(), testing::pole_contact(), ExteriorCondition::clamped, 0.49, 45},   // projected, linear space
+      {&testing::hemisphere(), testing::pole_contact(), ExteriorCondition::clamped, 0.49, 100},  // projected, nodal space
+  };
+  for (Case c : cases) {
+    c.contact.condition = geometry::ContactCondition::bonded;  // all six singular fields present
+    geometry::Material material;
+    material.poisson_ratio = c.poisson_ratio;
+    const Built b = build(*c.organ, c.contact, c.nodes, c.exterior, material);
+    ASSERT_TRUE(b.model.ok()) << b.model.status;
+    const Eigen::Index n_nodes = static_cast<Eigen::Index>(b.cloud.size());
+    const Eigen::Index m = static_cast<Eigen::Index>(b.model.modes.size());
+    ASSERT_EQ(m, 6);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(b.model.stiffness.rows());
+    for (Eigen::Index I = 0; I < n_nodes; ++I)
+      x.segment<3>(3 * I) = gradient * b.cloud.positions[static_cast<std::size_t>(I)] + offset;
+    const double lambda = material.lame_lambda_Pa(), mu = material.shear_modulus_Pa();
+    const Eigen::Matrix3d stress = lambda * strain.trace() * Eigen::Matrix3d::Identity() + 2 * mu * strain;
+    double volume = 0;
+    for (const double w : b.quadratures.volume.weights) volume += w;
+    const double exact_J = 0.5 * volume * (strain.cwiseProduct(stress)).sum();
+    const double model_J = 0.5 * x.dot(b.model.stiffness * x);
+    // The singular fields' rows against the affine field's boundary form.
+    const Eigen::VectorXd rows = (b.model.stiffness * x).segment(3 * n_nodes, m);
+    Eigen::VectorXd affine_form = Eigen::VectorXd::Zero(m);
+    for (const PatchQuadrature* set : {&b.quadratures.patch, &b.quadratures.free_surface, &b.quadratures.cut})
+      for (std::size_t q = 0; q < set->points.size(); ++q)
+        for (Eigen::Index i = 0; i < m; ++i)
+          affine_form[i] += set->weights[q] * (gradient * set->points[q] + offset)
+                                                  .dot(punch_field(b.model.modes[static_cast<std::size_t>(i)], b.model.frame, a,
+                                                                   material, set->points[q])
+                                                           .stress_Pa_per_m *
+                                                       set->normals[q]);
+    const double row_error = (rows - affine_form).cwiseAbs().maxCoeff() / rows.cwiseAbs().maxCoeff();
+    std::printf("affine patch test, N = %ld, nu = %.2f (%s): energy %.3e J, relative error %+.1e; psi rows: %.1e of the largest\n",
+                static_cast<long>(n_nodes), c.poisson_ratio, b.model.volumetric_space.empty() ? "full" : b.model.volumetric_space.c_str(),
+                model_J, model_J / exact_J - 1, row_error);
+    EXPECT_NEAR(model_J / exact_J, 1.0, 1e-10) << "N = " << n_nodes;
+    EXPECT_LT(row_error, 1e-10) << "N = " << n_nodes;
+  }
+}
+
 // The MLS–ψ coupling is assembled as ∮ N_I σ(ψ)n dA; on a box inside the body, away from the
 // rim, it must equal ∫ σ(ψ)∇N_I dV. The MLS functions are only C² (piecewise: their supports'
 // edges cross the box), so tensor Gauss converges slowly: the two forms agree to 3e-3 of the
