@@ -8,7 +8,13 @@ endif()
 execute_process(COMMAND git -C ${SOURCE_DIR} status --porcelain --untracked-files=no
   OUTPUT_VARIABLE dirty OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
 if(NOT dirty STREQUAL "")
-  set(git_hash "${git_hash}-dirty")
+  # Each uncommitted state gets its own suffix (a digest of the diff): the study runner keys the
+  # MFS cases it resumes on this hash, and two edits of one commit must not share results.
+  execute_process(COMMAND git -C ${SOURCE_DIR} diff HEAD
+    OUTPUT_VARIABLE diff ERROR_QUIET)
+  string(SHA256 diff_digest "${diff}")
+  string(SUBSTRING "${diff_digest}" 0 8 diff_digest)
+  set(git_hash "${git_hash}-dirty-${diff_digest}")
 endif()
 # The FEM cache key: a hash of every source that decides a reference solution: the folders of
 # the FEM, the meshes, the geometry core they read surfaces into, and studies' fem_reference

@@ -82,14 +82,26 @@ void write_with_point_arrays(const std::string& reference_path, const std::strin
     for (std::size_t i = 0; i < count; ++i) array->SetValue(static_cast<vtkIdType>(i), values[i]);
     grid->GetPointData()->AddArray(array);
   }
-  const std::string temporary = output_vtu + ".partial.vtu";
+  // Written beside the target and renamed into place. The temporary's name does not end in .vtu:
+  // a run killed mid-write leaves nothing that ParaView or a glob for *.vtu would take for a
+  // result, and the next write of the same file replaces it.
+  const std::string temporary = output_vtu + ".partial";
   vtkNew<vtkXMLUnstructuredGridWriter> writer;
   writer->SetFileName(temporary.c_str());
   writer->SetInputData(grid);
   writer->SetDataModeToAppended();
   writer->SetCompressorTypeToZLib();
-  if (writer->Write() != 1) throw std::runtime_error(output_vtu + ": cannot write");
-  std::filesystem::rename(temporary, output_vtu);
+  std::error_code error;
+  if (writer->Write() != 1) {
+    std::filesystem::remove(temporary, error);
+    throw std::runtime_error(output_vtu + ": cannot write");
+  }
+  std::filesystem::rename(temporary, output_vtu, error);
+  if (error) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    throw std::runtime_error(output_vtu + ": cannot write (renaming '" + temporary + "' failed: " + error.message() + ")");
+  }
 }
 
 }  // namespace touchstone::meshes

@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 namespace touchstone::meshes {
 namespace {
 
@@ -75,6 +77,26 @@ TEST(PointFieldVtu, WritesTheGridWithExtraArraysThatReadBackExactly) {
   vtkDataArray* scalars = read->GetPointData()->GetArray("in_local_domain");
   ASSERT_NE(scalars, nullptr);
   for (int i = 0; i < 5; ++i) EXPECT_EQ(scalars->GetTuple1(i), i % 2);
+}
+
+// The grid is written beside the target and renamed into place; a write that cannot finish (here
+// the target is a folder) names the file and leaves nothing behind, and the temporary never ends
+// in .vtu (a run killed mid-write must not leave a file ParaView takes for a result).
+TEST(PointFieldVtu, AFailedWriteLeavesNothingBehind) {
+  touchstone::testing::TemporaryDirectory directory("point_field");
+  const std::string grid = write_grid(directory);
+  const std::string out = directory.path("taken.vtu");
+  std::filesystem::create_directory(out);
+  const std::vector<double> mask(5, 1.0);
+  try {
+    write_with_point_arrays(grid, out, {}, {{"in_local_domain", mask}});
+    ADD_FAILURE() << "writing over a folder did not fail";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("taken.vtu"), std::string::npos) << e.what();
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(directory.path("")))
+    EXPECT_EQ(entry.path().string().find(".partial"), std::string::npos) << entry.path();
+  EXPECT_TRUE(std::filesystem::is_directory(out));
 }
 
 TEST(PointFieldVtu, ErrorsNameTheFileAndTheArray) {

@@ -88,7 +88,8 @@ struct EnrichedSettings {
   int min_point_neighbours = 14;
   /// Quadrature of the MLS–MLS block (rays from the contact point, graded toward the tool).
   /// These counts and the cut's are for N ≤ 40: build_local_model grows their angular counts as
-  /// ∛(N/40) beyond (finer shape functions need finer quadratures).
+  /// ∛(N/40) beyond, and the radial count in the same proportion beyond 60 nodes (finer shape
+  /// functions need finer quadratures).
   int volume_radial_points = 8, volume_polar_points = 8, volume_azimuth_points = 16;
   /// Boundary quadratures of every ψ term and of the multipliers.
   int patch_radial_points = 6, patch_angular_points = 12;
