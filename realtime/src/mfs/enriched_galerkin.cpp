@@ -437,13 +437,15 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   model.volumetric_projected = projected;
   const bool linear_space = n_nodes <= settings.volumetric_linear_space_up_to_nodes;
   model.volumetric_space = !projected ? "" : linear_space ? "linear" : "nodal";
-  const Eigen::Index polynomial_terms = 4, space_functions = linear_space ? polynomial_terms : n_nodes;
+  const Eigen::Index space_functions = linear_space ? 4 : n_nodes;  // 1, ξ_x, ξ_y, ξ_z, or the N_I
   const Eigen::Index space_size = projected ? space_functions + m : 0;
   const double cut_distance = quad.cut.points.empty() ? a : (quad.cut.points.front() - contact.point).norm();
   const double divergence_scale = cut_distance / (3 * lambda + 2 * mu);
   Eigen::MatrixXd space_gram = Eigen::MatrixXd::Zero(space_size, space_size);            // G [m³]
   Eigen::MatrixXd divergence_moments_t = Eigen::MatrixXd::Zero(3 * n_nodes, space_size);  // Dᵀ [m²], columns contiguous
   std::vector<double> psi_divergence(static_cast<std::size_t>(m));
+  std::vector<int> space_at_point;
+  std::vector<double> space_values;
   for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
     if (!evaluate(quad.volume.points[static_cast<std::size_t>(q)], Derivatives::gradients))
       return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes"
@@ -460,34 +462,29 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
       for (Eigen::Index i = 0; i < m; ++i)
         psi_divergence[static_cast<std::size_t>(i)] =
             divergence_scale * punch_field(model.modes[static_cast<std::size_t>(i)], frame, a, material, x).stress_Pa_per_m.trace();
+      // The space's functions that are non-zero here: the four monomials, or the nodes in reach
+      // with their MLS values.
       const std::vector<int>& nodes = eval.neighbours;
       if (linear_space) {
         const Eigen::Vector3d xi = (x - contact.point) / cut_distance;
-        const Eigen::Vector4d q(1.0, xi.x(), xi.y(), xi.z());
-        for (Eigen::Index k = 0; k < polynomial_terms; ++k) {
-          for (Eigen::Index l = 0; l <= k; ++l) space_gram(k, l) += w * q[k] * q[l];
-          for (Eigen::Index i = 0; i < m; ++i) space_gram(polynomial_terms + i, k) += w * psi_divergence[static_cast<std::size_t>(i)] * q[k];
-        }
-        for (std::size_t l = 0; l < nodes.size(); ++l) {
-          for (Eigen::Index k = 0; k < polynomial_terms; ++k)
-            divergence_moments_t.block<3, 1>(3 * nodes[l], k) += w * q[k] * eval.gradient[l];
-          for (Eigen::Index i = 0; i < m; ++i)
-            divergence_moments_t.block<3, 1>(3 * nodes[l], polynomial_terms + i) +=
-                w * psi_divergence[static_cast<std::size_t>(i)] * eval.gradient[l];
-        }
+        space_at_point.assign({0, 1, 2, 3});
+        space_values.assign({1.0, xi.x(), xi.y(), xi.z()});
       } else {
-        for (std::size_t k = 0; k < nodes.size(); ++k) {
-          const double wv = w * eval.value[k];
-          for (std::size_t l = 0; l < nodes.size(); ++l) {
-            space_gram(nodes[k], nodes[l]) += wv * eval.value[l];
-            divergence_moments_t.block<3, 1>(3 * nodes[l], nodes[k]) += wv * eval.gradient[l];
-          }
-          for (Eigen::Index i = 0; i < m; ++i) {
-            const double d = w * psi_divergence[static_cast<std::size_t>(i)];
-            space_gram(n_nodes + i, nodes[k]) += d * eval.value[k];
-            divergence_moments_t.block<3, 1>(3 * nodes[k], n_nodes + i) += d * eval.gradient[k];
-          }
-        }
+        space_at_point.assign(nodes.begin(), nodes.end());
+        space_values.assign(eval.value.begin(), eval.value.end());
+      }
+      for (std::size_t k = 0; k < space_at_point.size(); ++k) {
+        const double wq = w * space_values[k];
+        for (std::size_t l = 0; l < space_at_point.size(); ++l) space_gram(space_at_point[k], space_at_point[l]) += wq * space_values[l];
+        for (std::size_t l = 0; l < nodes.size(); ++l)
+          divergence_moments_t.block<3, 1>(3 * nodes[l], space_at_point[k]) += wq * eval.gradient[l];
+        for (Eigen::Index i = 0; i < m; ++i)
+          space_gram(space_functions + i, space_at_point[k]) += wq * psi_divergence[static_cast<std::size_t>(i)];
+      }
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const double d = w * psi_divergence[static_cast<std::size_t>(i)];
+        for (std::size_t l = 0; l < nodes.size(); ++l)
+          divergence_moments_t.block<3, 1>(3 * nodes[l], space_functions + i) += d * eval.gradient[l];
       }
       for (Eigen::Index i = 0; i < m; ++i)
         for (Eigen::Index j = 0; j <= i; ++j)
