@@ -1,6 +1,8 @@
 // One MLS evaluation with values, gradients and Hessians (what a collocation row needs), for the
-// quadratic basis with ~30 and ~60 neighbours and the linear basis with ~15. Candidates are the
-// nodes within 1.3 r of the point, as a coarse neighbour search would give.
+// quadratic basis with ~30 and ~60 neighbours and the linear basis with ~15; and with ~30
+// neighbours the values and gradients of a Galerkin volume point and the values of a boundary
+// point. Candidates are the nodes within 1.3 r of the point, as a coarse neighbour search would
+// give.
 
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
 
@@ -55,7 +57,7 @@ Scene make_scene(double neighbours) {
   return scene;
 }
 
-void evaluate(benchmark::State& state, Basis basis, double neighbours) {
+void evaluate(benchmark::State& state, Basis basis, double neighbours, Derivatives derivatives = Derivatives::hessians) {
   const Scene scene = make_scene(neighbours);
   const MlsSettings settings{basis};
   MlsEvaluation result;
@@ -64,7 +66,9 @@ void evaluate(benchmark::State& state, Basis basis, double neighbours) {
   std::int64_t evaluations = 0;
   for (auto _ : state) {
     evaluate_mls(scene.points[point], scene.positions, scene.radii, scene.candidates[point], settings,
-                 Derivatives::hessians, result);
+                 derivatives, result);
+    benchmark::DoNotOptimize(result.value.data());
+    benchmark::DoNotOptimize(result.gradient.data());
     benchmark::DoNotOptimize(result.hessian.data());
     if (result.status != MlsStatus::ok) {
       state.SkipWithError("MLS evaluation failed");
@@ -80,9 +84,14 @@ void evaluate(benchmark::State& state, Basis basis, double neighbours) {
 void BM_mls_quadratic_30(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0); }
 void BM_mls_quadratic_60(benchmark::State& state) { evaluate(state, Basis::quadratic, 60.0); }
 void BM_mls_linear_15(benchmark::State& state) { evaluate(state, Basis::linear, 15.0); }
+/// What a Galerkin volume point asks for (values and gradients) and a boundary point (values).
+void BM_mls_quadratic_30_gradients(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0, Derivatives::gradients); }
+void BM_mls_quadratic_30_values(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0, Derivatives::values); }
 
 BENCHMARK(BM_mls_quadratic_30);
 BENCHMARK(BM_mls_quadratic_60);
 BENCHMARK(BM_mls_linear_15);
+BENCHMARK(BM_mls_quadratic_30_gradients);
+BENCHMARK(BM_mls_quadratic_30_values);
 
 }  // namespace

@@ -91,6 +91,9 @@ std::vector<Field> make_fields() {
                       [](auto& s) -> auto& { return s.enriched.volume_polar_points; }));
   f.push_back(integer({"enriched", "volume_azimuth_points", "points", "MLS-MLS volume quadrature, azimuthal (N <= 40)"},
                       [](auto& s) -> auto& { return s.enriched.volume_azimuth_points; }));
+  f.push_back(real({"enriched", "volume_coarse_within_tool_radii", "tool radii",
+                    "volume shells this close to the contact point take half the angular counts (0: none)"},
+                   [](auto& s) -> auto& { return s.enriched.volume_coarse_within_tool_radii; }));
   f.push_back(integer({"enriched", "patch_radial_points", "points", "patch quadrature, radial (r = a sin t)"},
                       [](auto& s) -> auto& { return s.enriched.patch_radial_points; }));
   f.push_back(integer({"enriched", "patch_angular_points", "points", "patch quadrature, angular"},

@@ -14,8 +14,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <string>
 #include <utility>
 
@@ -309,6 +311,93 @@ TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
     EXPECT_GE(b.model.mean_volume_point_nodes, EnrichedSettings{}.min_point_neighbours);
     EXPECT_LE(b.model.mean_volume_point_nodes, static_cast<double>(b.cloud.size()));
   }
+}
+
+// The supports are grown so that every quadrature point sees min_point_neighbours nodes, and
+// they must not depend on the order in which the points come: reversing and shuffling every
+// rule gives the same radii, bit for bit. (When each point was judged against the growth of the
+// points before it, a different enumeration of the volume rule moved B3 forces by 0.2 points.)
+TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
+  const ToolContact contact = testing::pole_contact();
+  const LocalSurface surface(testing::hemisphere(), contact.point, 1.3 * length);
+  EnrichedSettings settings;
+  EnrichedQuadratures q;
+  PunchFrame frame;
+  std::string failure;
+  ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, q, frame, failure)) << failure;
+  const NodeCloud cloud = sprinkle_even_nodes(surface, contact, 45, length, 1);
+  const auto radii_of = [&](const std::vector<const PatchQuadrature*>& sets) {
+    return enriched_support_radii(cloud.positions, sets, settings.support_neighbours, settings.min_point_neighbours);
+  };
+  const std::vector<double> radii = radii_of({&q.volume, &q.patch, &q.free_surface, &q.cut});
+  EnrichedQuadratures permuted = q;
+  std::mt19937 shuffle(7);
+  for (PatchQuadrature* set : {&permuted.volume, &permuted.patch, &permuted.free_surface, &permuted.cut}) {
+    std::reverse(set->points.begin(), set->points.end());
+    std::shuffle(set->points.begin(), set->points.end(), shuffle);
+  }
+  EXPECT_EQ(radii_of({&permuted.cut, &permuted.free_surface, &permuted.volume, &permuted.patch}), radii);
+  // Every point sees enough nodes, and some supports did grow (else the test shows nothing).
+  int grown = 0;
+  const std::vector<double> nearest = radii_of({});
+  for (std::size_t j = 0; j < radii.size(); ++j) grown += radii[j] > nearest[j] ? 1 : 0;
+  EXPECT_GT(grown, 0);
+  for (const PatchQuadrature* set : {&q.volume, &q.patch, &q.free_surface, &q.cut})
+    for (const Eigen::Vector3d& x : set->points) {
+      int seen = 0;
+      for (std::size_t j = 0; j < radii.size(); ++j) seen += (cloud.positions[j] - x).norm() < radii[j] ? 1 : 0;
+      ASSERT_GE(seen, settings.min_point_neighbours);
+    }
+}
+
+// The volume rule's inner shells (within 1.25 a of the contact point) take half the angular
+// counts. On a flat body every ray has the full length L, so the rule is an exact product: with
+// the 8-point Gauss–Legendre radial rule t = 0.0199 … 0.4083 (ρ < 1.1 a) are the four inner
+// shells, 4 × (8 × 4) + 4 × (16 × 8) = 640 points against 1024. Both rules must integrate the
+// half ball's volume and ∫ z² dV = 2π L⁵/15, and the coarse one must hold exactly the full
+// rule's points beyond the inner shells.
+TEST(EnrichedGalerkin, VolumeRuleCoarsensOnlyItsInnerShells) {
+  const ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
+  const LocalSurface surface(flat_body(), contact.point, 1.3 * length);
+  const auto rule = [&](double coarse_within_tool_radii) {
+    EnrichedSettings settings;
+    settings.volume_coarse_within_tool_radii = coarse_within_tool_radii;
+    EnrichedQuadratures quadratures;
+    PunchFrame frame;
+    std::string failure;
+    EXPECT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
+    return quadratures.volume;
+  };
+  const PatchQuadrature full = rule(0.0), coarse = rule(1.25);
+  EXPECT_EQ(full.points.size(), 1024u);
+  EXPECT_EQ(coarse.points.size(), 640u);
+  const double pi = std::acos(-1.0);
+  const double volume = 2 * pi * std::pow(length, 3) / 3, z2 = 2 * pi * std::pow(length, 5) / 15;
+  const auto integrals = [](const PatchQuadrature& q) {
+    double v = 0, m = 0;
+    for (std::size_t i = 0; i < q.points.size(); ++i) {
+      v += q.weights[i];
+      m += q.weights[i] * q.points[i].z() * q.points[i].z();
+    }
+    return std::pair{v, m};
+  };
+  const auto [full_volume, full_z2] = integrals(full);
+  const auto [coarse_volume, coarse_z2] = integrals(coarse);
+  std::printf("volume rule: full %zu points, volume %+.1e, z^2 %+.1e; coarse %zu points, %+.1e, %+.1e\n", full.points.size(),
+              full_volume / volume - 1, full_z2 / z2 - 1, coarse.points.size(), coarse_volume / volume - 1, coarse_z2 / z2 - 1);
+  // Gauss–Legendre in t and θ on smooth integrands: 1e-7 or better with either rule (printed).
+  for (const double relative : {full_volume / volume, full_z2 / z2, coarse_volume / volume, coarse_z2 / z2}) EXPECT_NEAR(relative, 1.0, 1e-6);
+  // Every point beyond the inner shells is the full rule's own point, with its weight.
+  std::size_t outer = 0;
+  for (std::size_t i = 0; i < coarse.points.size(); ++i) {
+    if (coarse.points[i].norm() < 1.25 * a) continue;
+    ++outer;
+    bool found = false;
+    for (std::size_t j = 0; j < full.points.size() && !found; ++j)
+      found = (full.points[j] - coarse.points[i]).norm() < 1e-12 * length && std::abs(full.weights[j] - coarse.weights[i]) < 1e-12 * full.weights[j];
+    EXPECT_TRUE(found) << "outer point " << i;
+  }
+  EXPECT_EQ(outer, 512u);
 }
 
 // The patch test with the enrichment present: nodal values u_I = G x_I + c make the MLS part the

@@ -388,6 +388,11 @@ TEST(LocalModelDegenerate, InvalidSettingsAreNamed) {
   s.force.haptic_method = ForceMethod::reaction;
   s.sprinkling.outer = OuterCondition::traction_free;
   expect_named(s, "outer");
+  for (const double coarse : {-1.0, std::nan(""), 1e4}) {
+    s = LocalModelSettings{};
+    s.enriched.volume_coarse_within_tool_radii = coarse;
+    expect_named(s, "volume_coarse_within_tool_radii");
+  }
   // The defaults and the paper's setup are valid.
   EXPECT_NO_THROW(LocalModelSettings{}.validate());
   EXPECT_NO_THROW(paper_settings().validate());
