@@ -221,8 +221,8 @@ std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& n
   // Grow locally: a point seeing too few nodes reaches its nearest ones, each made to cover it
   // with a margin (W vanishes at the support's edge, so a node just inside adds nothing). Every
   // point is judged against the k-nearest radii, not against the growth of the points before
-  // it: the supports must not depend on the order of the quadrature points (when they did,
-  // merely enumerating the volume rule differently moved B3 forces by up to 0.23 points).
+  // it: the supports must not depend on the order in which the quadrature rules list their
+  // points (docs/enriched_model.md, "Supports that do not depend on the point order").
   const std::size_t need = std::min<std::size_t>(static_cast<std::size_t>(min_neighbours), n);
   const std::vector<double> nearest_radii = radii;
   std::vector<std::pair<double, std::size_t>> nearest(n);
@@ -424,11 +424,11 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const Eigen::Index modes_at = 3 * n_nodes, shift_at = modes_at + m;
   const Eigen::Index n = shift_at + (cut_shift ? 3 : 0);
 
-  cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
-                                       settings.support_neighbours, settings.min_point_neighbours);
   using clock = std::chrono::steady_clock;
   const auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  auto step = clock::now();
+  auto step = clock::now();  // the supports are grown for the volume rule's points too: count them in volume_s
+  cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
+                                       settings.support_neighbours, settings.min_point_neighbours);
   MlsEvaluation eval;
   static const std::vector<int> all_nodes;
   const auto evaluate = [&](const Eigen::Vector3d& x, Derivatives what) {

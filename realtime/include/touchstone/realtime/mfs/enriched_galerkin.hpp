@@ -93,9 +93,8 @@ struct EnrichedSettings {
   int volume_radial_points = 8, volume_polar_points = 8, volume_azimuth_points = 16;
   /// The volume rule's shells within this many tool radii of the contact point (on a ray of
   /// full length L) take half the polar and azimuthal counts; 0: every shell takes the full
-  /// counts. On B3 (ν = 0.30 … 0.49, N = 30 … 300, both contacts) 1.25 moves the forces by at
-  /// most 0.05 points against 0; coarsening out to 2.2 or 3.2 moved them by up to 0.25 or 0.28
-  /// (docs/enriched_model.md).
+  /// counts. Coarsening further out costs accuracy (docs/enriched_model.md, "The inner shells
+  /// of the volume rule").
   double volume_coarse_within_tool_radii = 1.25;
   /// Boundary quadratures of every ψ term and of the multipliers.
   int patch_radial_points = 6, patch_angular_points = 12;
@@ -157,9 +156,9 @@ struct EnrichedModel {
   double mean_volume_point_nodes = 0;
   double min_rcond = 1, max_support_scale = 1;
   double kkt_relative_residual = 0;
-  /// Where the build's time went [s]: the volume rule (MLS gradients, the MLS–MLS block and the
-  /// projected volumetric term), the boundary rules with the ψ blocks and the constraint rows,
-  /// and the KKT solve.
+  /// Where the build's time went [s]: the supports and the volume rule (MLS gradients, the
+  /// MLS–MLS block and the projected volumetric term), the boundary rules with the ψ blocks and
+  /// the constraint rows, and the KKT solve.
   double volume_s = 0, boundary_s = 0, solve_s = 0;
   std::string status = "ok";
   bool ok() const { return status == "ok"; }
