@@ -2,10 +2,12 @@
 // each.
 #include "commands.hpp"
 
+#include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/report_launcher.hpp"
 
 #include <cstdio>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
 void touchstone::app::write_short_report(const std::string& kind, const std::string& output_directory, bool quiet) {
@@ -20,6 +22,9 @@ int main(int argc, char** argv) {
   using namespace touchstone::app;
   CLI::App program{"Touchstone: a real-time meshless tissue model checked against a converged FEM reference"};
   program.require_subcommand(1);
+  // Exit status: 0 done, 1 a run that failed, 2 bad input (a command line or a config refused
+  // before anything is written), 3 a regression against a CI baseline (study).
+  constexpr int bad_input = 2;
   std::vector<Command> commands;
   const ProgramArguments arguments{&argc, &argv};
   add_mesh_command(program, commands);
@@ -42,14 +47,25 @@ int main(int argc, char** argv) {
     if (!known) {
       std::fprintf(stderr, "touchstone: error: unknown subcommand '%s' (one of: %s; touchstone --help)\n", argv[1],
                    names.c_str());
-      return 2;
+      return bad_input;
     }
   }
-  CLI11_PARSE(program, argc, argv);
+  try {
+    program.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = program.exit(e);  // prints the help, or CLI11's message naming the option
+    return status == 0 ? 0 : bad_input;
+  }
   for (const Command& command : commands) {
     if (!command.subcommand->parsed()) continue;
     try {
       return command.run();
+    } catch (const touchstone::studies::ConfigError& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      return bad_input;
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "touchstone: error: %s\n", e.what());
+      return bad_input;
     } catch (const std::exception& e) {
       std::fprintf(stderr, "touchstone: error: %s\n", e.what());
       return 1;

@@ -356,6 +356,11 @@ void OrganAtlasStudy::validate() const {
       throw std::invalid_argument("OrganAtlasStudy.refinements must be consecutive levels, e.g. [0, 1, 2]");
   if (!std::isfinite(trace_depth_m) || trace_depth_m <= 0)
     throw std::invalid_argument("OrganAtlasStudy.trace_depth_m = " + format_number(trace_depth_m) + " must be > 0");
+  // The trace's amplitude drops out of K_ext (a linear solve, divided by its square), but a
+  // punch pushed farther than L/2 would leave the local ball: such an input is a mistake.
+  if (!(trace_depth_m <= 0.5 * geometry.local_radius_m))
+    throw std::invalid_argument("OrganAtlasStudy.trace_depth_m = " + format_number(trace_depth_m) +
+                                " must be <= local_radius / 2 = " + format_number(0.5 * geometry.local_radius_m));
   if (half_space_polar_points < 2)
     throw std::invalid_argument("OrganAtlasStudy.half_space_polar_points = " + std::to_string(half_space_polar_points) +
                                 " must be >= 2");

@@ -255,6 +255,11 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   }
   if (options.virtual_clock) s.record_force_history = true;
   if (scene.write_force_history) s.record_force_history = true;
+  // The scripted hand with the run's duration and rate: refused before anything is written.
+  haptics::PalpationSettings palpation = scene.palpation;
+  if (s.duration_s > 0) palpation.duration_s = s.duration_s;
+  palpation.sample_rate_hz = s.rates.haptic_hz;
+  if (scene.device == DeviceKind::scripted) palpation.validate();
   fs::create_directories(scene.output_directory);
   const std::string out = scene.output_directory;
 
@@ -271,11 +276,8 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   switch (scene.device) {
     case DeviceKind::none: break;
     case DeviceKind::scripted: {
-      haptics::PalpationSettings p = scene.palpation;
-      if (s.duration_s > 0) p.duration_s = s.duration_s;
-      p.sample_rate_hz = s.rates.haptic_hz;
       // Poses computed as they are read: the memory of a run does not grow with its duration.
-      haptics::PalpationScript script = haptics::make_palpation_script(organ, p);
+      haptics::PalpationScript script = haptics::make_palpation_script(organ, palpation);
       palpations = script.palpations;
       device = std::make_unique<haptics::PalpationDevice>(std::move(script), scene.device_max_force_N);
       break;

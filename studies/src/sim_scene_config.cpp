@@ -245,6 +245,12 @@ SimScene read_sim_scene(const std::string& path) {
     if (!(s.tool.tip_radius_m < 0.5 * L))
       throw std::invalid_argument("tool.tip_radius = " + format_number(s.tool.tip_radius_m) +
                                   " m must be < model.sprinkling.local_radius / 2 = " + format_number(0.5 * L) + " m");
+    // The scripted hand presses the tool this far: beyond L/2 it would leave the local ball (as
+    // `touchstone mfs` refuses a depth beyond L/2), and a press through the organ is no palpation.
+    if (scene.device == DeviceKind::scripted && !(scene.palpation.press_depth_m <= 0.5 * L))
+      throw std::invalid_argument("device.scripted.press_depth = " + format_number(scene.palpation.press_depth_m) +
+                                  " m must be <= model.sprinkling.local_radius / 2 = " + format_number(0.5 * L) +
+                                  " m (the tool would leave the local ball)");
     if (scene.time_series_frame_stride < 1) throw std::invalid_argument("output.frame_stride must be >= 1");
   } catch (const std::invalid_argument& error) {
     throw ConfigError(path + ": " + error.what());

@@ -1,79 +1,195 @@
-"""Bad command lines and configs get a named error and a non-zero exit status, before anything is
-written: each case runs `touchstone` and checks the status, a text in stderr and which files exist.
-Usage: check_cli_errors.py <touchstone binary> <source dir> <scratch dir>"""
+"""Bad command lines and configs get a named error and exit status 2 before anything is written;
+a run that fails after starting exits 1. Each case runs `touchstone` in a scratch folder and checks
+the status, a text in stderr (the key or value it names) and that nothing was written: neither
+the output folder nor the FEM cache. `--table` prints the bad-number matrix as the README's table.
+Usage: check_cli_errors.py <touchstone binary> <source dir> <scratch dir> [--table]"""
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
 
-binary, source, scratch = sys.argv[1], pathlib.Path(sys.argv[2]), pathlib.Path(sys.argv[3])
+binary = str(pathlib.Path(sys.argv[1]).resolve())
+source, scratch = pathlib.Path(sys.argv[2]).resolve(), pathlib.Path(sys.argv[3]).resolve()
+print_table = "--table" in sys.argv[4:]
 shutil.rmtree(scratch, ignore_errors=True)
 scratch.mkdir(parents=True)
 configs = source / "studies" / "configs"
+BAD_INPUT = 2
 
-# A small MFS study; each case below changes one key.
+failures = []
+
+
+def check(name, args, status, text, absent=(), cwd=None):
+    result = subprocess.run([binary, *args], capture_output=True, text=True, timeout=600, cwd=cwd)
+    ok = result.returncode == status and text in result.stderr
+    for path in absent:
+        if pathlib.Path(path).exists():
+            ok = False
+            print(f"{name}: {path} was written")
+    print(f"{'ok  ' if ok else 'FAIL'} {name}: exit {result.returncode}, stderr: {result.stderr.strip()[-220:]}")
+    if not ok:
+        failures.append(name)
+    return ok
+
+
+# --- Command lines -------------------------------------------------------------------------------
+check("unknown subcommand", ["frobnicate"], BAD_INPUT, "unknown subcommand 'frobnicate'")
+scene = str(configs / "scenes" / "palpation.toml")
+check("sim --duration -5", ["sim", scene, "--duration", "-5"], BAD_INPUT, "must be a finite number of seconds >= 0")
+check("sim --duration nan", ["sim", scene, "--duration", "nan"], BAD_INPUT, "must be a finite number of seconds >= 0")
+check("mfs without a config", ["mfs"], BAD_INPUT, "config")
+out = scratch / "only"
+check("study --only nomatch", ["study", str(configs / "ci_accuracy.toml"), "--only", "nomatch", "--out", str(out)],
+      BAD_INPUT, "--only matches no MFS case", absent=[out])
+out = scratch / "accept"
+check("study accept without [ci]", ["study", "accept", str(configs / "hemisphere.toml"), "--out", str(out)], BAD_INPUT,
+      "[ci] baseline is not set", absent=[out])
+
+# --- Bad numbers at every entry: one key changed in a valid config per case ----------------------
+# Base configs, each valid as written (every one is also run unchanged by other tests).
 MFS = """study = "cli_check"
 [geometry]
 benchmark = "B2"
 body_radius = "50 mm"
 tool_radius = "2.5 mm"
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
 [tool]
-depth = "{depth}"
+depth = "0.25 mm"
 [sprinkling]
-node_count = {counts}
-local_radius = "{local_radius}"
+node_count = [34]
+local_radius = "12.5 mm"
 """
+FEM = """study = "cli_check_fem"
+[geometry]
+benchmark = "B2"
+body_radius = "50 mm"
+tool_radius = "5 mm"
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[mesh]
+edge_size = "2.5 mm"
+size_growth = 0.8
+max_size = "25 mm"
+refinements = [0]
+[tool]
+depth = "0.5 mm"
+[solver]
+degree = 1
+"""
+STUDY = (configs / "ci_accuracy.toml").read_text().replace('config = "b3_reference.toml"',
+                                                            f'config = "{configs / "b3_reference.toml"}"')
+STUDY = re.sub(r'\[ci\].*?(?=\n\[mfs)', "", STUDY, flags=re.S)
+ATLAS = (configs / "atlas_hemisphere.toml").read_text()
+SCENE = (configs / "scenes" / "palpation.toml").read_text().replace(
+    '"../atlases/stomach.json"', f'"{configs / "atlases" / "stomach.json"}"')
+COLLISION = (configs / "collision_table1.toml").read_text()
 
+BASES = {"mesh": FEM, "fem": FEM, "mfs": MFS, "study": STUDY, "atlas": ATLAS, "sim": SCENE, "collision": COLLISION}
+EXTRA_ARGS = {"sim": ["--virtual", "--duration", "5"]}  # one palpation: 4.8 s
 
-def mfs_config(name, depth="0.25 mm", counts="[34]", local_radius="12.5 mm"):
-    path = scratch / f"{name}.toml"
-    path.write_text(MFS.format(depth=depth, counts=counts, local_radius=local_radius))
-    return str(path)
+# class → subcommand → (text replaced, replacement, text the error must contain).
+E = ('youngs_modulus = "10 kPa"', "youngs_modulus")
+NU = ("poisson_ratio = 0.45", "poisson_ratio")
+CASES = {
+    "E = NaN": {s: (E[0], 'youngs_modulus = "nan kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "E = Inf": {s: (E[0], 'youngs_modulus = "inf kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "E < 0": {s: (E[0], 'youngs_modulus = "-10 kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "E = 0": {s: (E[0], 'youngs_modulus = "0 kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "ν = 0.5": {s: (NU[0], "poisson_ratio = 0.5", NU[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "ν = NaN": {s: (NU[0], "poisson_ratio = nan", NU[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "tool radius ≤ 0": {
+        "mesh": ('tool_radius = "5 mm"', 'tool_radius = "-5 mm"', "tool_radius"),
+        "fem": ('tool_radius = "5 mm"', 'tool_radius = "0 mm"', "tool_radius"),
+        "mfs": ('tool_radius = "2.5 mm"', 'tool_radius = "0 mm"', "tool_radius"),
+        "study": ('tool_radius = "2.5 mm"', 'tool_radius = "-2.5 mm"', "tool_radius"),
+        "atlas": ('tool_radius = "2.5 mm"', 'tool_radius = "0 mm"', "tool_radius"),
+        "sim": ('tip_radius = "2.5 mm"', 'tip_radius = "-2.5 mm"', "tip_radius"),
+    },
+    "body size NaN or ≤ 0": {
+        "mesh": ('body_radius = "50 mm"', 'body_radius = "nan mm"', "body_radius"),
+        "fem": ('body_radius = "50 mm"', 'body_radius = "0 mm"', "body_radius"),
+        "mfs": ('body_radius = "50 mm"', 'body_radius = "inf mm"', "body_radius"),
+        "study": ('body_radius = "50 mm"', 'body_radius = "-50 mm"', "body_radius"),
+        "atlas": ('body_radius = "50 mm"', 'body_radius = "nan mm"', "body_radius"),
+        "collision": ('hemisphere_radius = "50 mm"', 'hemisphere_radius = "0 mm"', "hemisphere_radius"),
+    },
+    "depth beyond the body": {
+        "mesh": ('depth = "0.5 mm"', 'depth = "80 mm"', "tool.depth_m"),
+        "fem": ('depth = "0.5 mm"', 'depth = "80 mm"', "tool.depth_m"),
+        "mfs": ('depth = "0.25 mm"', 'depth = "1 m"', "tool.depth_m"),
+        "study": ('depths = ["0.125 mm", "0.25 mm"]', 'depths = ["0.125 mm", "80 mm"]', "problem.depths"),
+        "atlas": ('trace_depth = "0.1 mm"', 'trace_depth = "80 mm"', "trace_depth"),
+        "sim": ('press_depth = "3 mm"', 'press_depth = "1 m"', "press_depth"),
+    },
+    "depth ≤ 0": {
+        "mesh": ('depth = "0.5 mm"', 'depth = "nan mm"', "tool.depth"),
+        "fem": ('depth = "0.5 mm"', 'depth = "-0.5 mm"', "depth_m"),
+        "mfs": ('depth = "0.25 mm"', 'depth = "0 mm"', "tool.depth_m"),
+        "study": ('depths = ["0.125 mm", "0.25 mm"]', 'depths = ["-0.125 mm"]', "problem.depths"),
+        "atlas": ('trace_depth = "0.1 mm"', 'trace_depth = "0 mm"', "trace_depth"),
+        "sim": ('press_depth = "3 mm"', 'press_depth = "-3 mm"', "press_depth"),
+    },
+    "empty list": {
+        "mesh": ("refinements = [0]", "refinements = []", "refinements"),
+        "fem": ("refinements = [0]", "refinements = []", "refinements"),
+        "mfs": ("node_count = [34]", "node_count = []", "node_count"),
+        "study": ('depths = ["0.125 mm", "0.25 mm"]', "depths = []", "depths"),
+        "atlas": ('polar_angles = ["0 deg", "15 deg", "30 deg", "45 deg", "60 deg"]', "polar_angles = []", "polar_angles"),
+        "collision": ("stomach_triangles = [500, 2500, 17000, 35000]   # J-shaped stomach, about 0.2 m\nhemisphere_triangles = [2500]",
+                      "stomach_triangles = []\nhemisphere_triangles = []", "stomach_triangles and hemisphere_triangles are empty"),
+    },
+    "rate, count or duration out of range": {
+        "sim": ("haptic_hz = 1000", "haptic_hz = 1e9", "haptic_hz"),
+        "collision": ("stomach_triangles = [500, 2500, 17000, 35000]", "stomach_triangles = [-500]", "stomach_triangles"),
+        "mfs": ("node_count = [34]", "node_count = [0]", "node_count"),
+    },
+}
 
+table = {}
+for index, (case, per_command) in enumerate(CASES.items()):
+    for command, (old, new, named) in per_command.items():
+        base = BASES[command]
+        if old not in base:
+            sys.exit(f"check_cli_errors.py: '{old}' is not in the {command} base config (the shipped config changed?)")
+        folder = scratch / f"{command}_{index}"
+        folder.mkdir()
+        config = folder / "bad.toml"
+        config.write_text(base.replace(old, new, 1))
+        out = folder / "out"
+        args = [command, str(config), *EXTRA_ARGS.get(command, []), "--out", str(out)]
+        ok = check(f"{command}: {case} ({new})", args, BAD_INPUT, named, absent=[out, folder / ".cache"], cwd=folder)
+        table.setdefault(case, {})[command] = f"`{named}`" if ok else "**FAIL**"
 
-failures = []
-
-
-def check(name, args, status, text, absent=()):
-    result = subprocess.run([binary, *args], capture_output=True, text=True, timeout=600)
-    ok = (result.returncode == status if status is not None else result.returncode != 0) and text in result.stderr
-    for path in absent:
-        if pathlib.Path(path).exists():
-            ok = False
-            print(f"{name}: {path} was written")
-    print(f"{'ok  ' if ok else 'FAIL'} {name}: exit {result.returncode}, stderr: {result.stderr.strip()[:200]}")
-    if not ok:
-        failures.append(name)
-
-
-check("unknown subcommand", ["frobnicate"], 2, "unknown subcommand 'frobnicate'")
-scene = str(configs / "scenes" / "palpation.toml")
-check("sim --duration -5", ["sim", scene, "--duration", "-5"], None, "must be a finite number of seconds >= 0")
-check("sim --duration nan", ["sim", scene, "--duration", "nan"], None, "must be a finite number of seconds >= 0")
-out = scratch / "only"
-check("study --only nomatch", ["study", str(configs / "ci_accuracy.toml"), "--only", "nomatch", "--out", str(out)], 1,
-      "--only matches no MFS case", absent=[out])
-out = scratch / "accept"
-check("study accept without [ci]", ["study", "accept", str(configs / "hemisphere.toml"), "--out", str(out)], 1,
-      "[ci] baseline is not set", absent=[out])
-out = scratch / "depth"
-check("mfs depth beyond L/2", ["mfs", mfs_config("depth", depth="1 m"), "--out", str(out)], 1, "tool.depth_m",
-      absent=[out / "config.resolved.toml"])
-out = scratch / "twice"
-check("mfs node count twice", ["mfs", mfs_config("twice", counts="[34, 60, 34]"), "--out", str(out)], 1,
-      "node_count lists 34 twice", absent=[out / "config.resolved.toml"])
-out = scratch / "zero_l"
-check("mfs zero local radius", ["mfs", mfs_config("zero_l", local_radius="0 mm"), "--out", str(out)], 1,
-      "local_radius", absent=[out / "config.resolved.toml"])
+# A run that fails after it started is not bad input: status 1 (every MFS case failing).
+out = scratch / "all_fail"
+(scratch / "all_fail.toml").write_text(MFS.replace('local_radius = "12.5 mm"', 'local_radius = "12.5 mm"\n[mls]\nmin_rcond = 0.99'))
+result = subprocess.run([binary, "mfs", str(scratch / "all_fail.toml"), "--out", str(out)], capture_output=True, text=True,
+                        timeout=600)
+all_failed = result.returncode == 1 and (out / "results.json").exists()
+print(f"{'ok  ' if all_failed else 'FAIL'} mfs in which every case fails: exit {result.returncode}, "
+      f"results.json {'written' if (out / 'results.json').exists() else 'missing'}; {result.stderr.strip()[-200:]}")
+if not all_failed:
+    failures.append("mfs in which every case fails")
 
 # `mesh --out` into a folder that does not exist yet.
 out = scratch / "m0"
 result = subprocess.run([binary, "mesh", str(source / "tests" / "reference_fem" / "tiny_b2.toml"), "--refinement", "0",
-                         "--out", str(out)], capture_output=True, text=True, timeout=600)
+                         "--out", str(out)], capture_output=True, text=True, timeout=600, cwd=scratch)
 meshes = list(out.glob("*.msh")) if out.exists() else []
 print(f"{'ok  ' if result.returncode == 0 and meshes else 'FAIL'} mesh --out new folder: exit {result.returncode}, "
       f"{len(meshes)} mesh file(s); {result.stderr.strip()[:200]}")
 if result.returncode != 0 or not meshes:
     failures.append("mesh --out new folder")
+
+if print_table:
+    commands = list(BASES)
+    print("\n| bad value | " + " | ".join(f"`{c}`" for c in commands) + " |")
+    print("|---|" + "---|" * len(commands))
+    for case, row in table.items():
+        print(f"| {case} | " + " | ".join(row.get(c, "—") for c in commands) + " |")
 
 sys.exit(f"{len(failures)} failed: {', '.join(failures)}" if failures else 0)

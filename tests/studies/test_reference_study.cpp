@@ -115,6 +115,36 @@ TEST(ReferenceStudy, UnknownKeyIsNamed) {
   }
 }
 
+// A tool pushed through the body is refused, named, with the thickness it was held to: R on
+// B2 and B5, W on B1, the smaller of R and L on B3; a depth just inside passes.
+TEST(ReferenceStudy, ADepthBeyondTheBodyIsRefused) {
+  struct Case {
+    meshes::Benchmark benchmark;
+    double thickness_m;
+  };
+  for (const Case c : {Case{meshes::Benchmark::B1, 0.05}, Case{meshes::Benchmark::B2, 0.05}, Case{meshes::Benchmark::B5, 0.05},
+                       Case{meshes::Benchmark::B3, 0.0125}}) {
+    ReferenceStudy study = tiny_study();
+    study.geometry.benchmark = c.benchmark;
+    study.geometry.contact_polar_angle_rad = c.benchmark == meshes::Benchmark::B5 ? 0.3 : 0.0;
+    study.geometry.local_radius_m = 0.0125;
+    study.punch.depth_m = 0.99 * c.thickness_m;
+    EXPECT_NO_THROW(study.validate()) << meshes::to_string(c.benchmark);
+    study.punch.depth_m = c.thickness_m;
+    try {
+      study.validate();
+      ADD_FAILURE() << meshes::to_string(c.benchmark) << ": a depth equal to the body's thickness was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("tool.depth_m"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("thickness under the tool"), std::string::npos) << e.what();
+    }
+  }
+  ReferenceStudy swept = tiny_study();  // every body radius of a sweep is held to it
+  swept.body_radii_m = {0.05, 0.02};
+  swept.punch.depth_m = 0.03;
+  EXPECT_THROW(swept.validate(), std::invalid_argument);
+}
+
 TEST(ReferenceStudy, HalfSpaceClosedForms) {
   const geometry::Material material{10.0e3, 0.45};
   // Sneddon: 2Eaδ/(1−ν²); Mossakovskii: 4Gaδ ln(3−4ν)/(1−2ν), G = E/(2(1+ν)).

@@ -99,7 +99,16 @@ void PalpationSettings::validate() const {
   require_positive(transfer_s, "transfer_s");
   require_positive(sample_rate_hz, "sample_rate_hz");
   tremor.validate();
+  if (!(duration_s >= first_palpation_s()))
+    throw std::invalid_argument("PalpationSettings.duration_s = " + std::to_string(duration_s) +
+                                " s is shorter than one palpation (" + std::to_string(first_palpation_s()) + " s)");
 }
+
+double PalpationSettings::palpation_s() const noexcept {
+  return approach_s + 2 * hold_s + (slide_m > 0 ? slide_s : 0) + release_s + rest_s;
+}
+
+double PalpationSettings::first_palpation_s() const noexcept { return palpation_s() + rest_s; }
 
 Eigen::Vector3d palpation_sample(const PalpationMove& move, long long k) noexcept {
   const double s = hand_motion::minimum_jerk(static_cast<double>(k - move.begin + 1) / move.samples);
@@ -134,8 +143,7 @@ PalpationScript make_palpation_script(const geometry::TriangleSurface& organ, co
   }
 
   // One palpation: approach from the hover point, press, hold, slide, hold, release.
-  const auto palpation_seconds = settings.approach_s + 2 * settings.hold_s +
-                                 (settings.slide_m > 0 ? settings.slide_s : 0) + settings.release_s + settings.rest_s;
+  const double palpation_seconds = settings.palpation_s();
   const auto transfer_seconds = 3 * settings.transfer_s;
   Builder builder(settings, out);
   const int site_count = static_cast<int>(out.site_points.size());
@@ -184,10 +192,6 @@ PalpationScript make_palpation_script(const geometry::TriangleSurface& organ, co
     ++out.palpations;
     site = (site + 1) % site_count;
   }
-  if (out.palpations == 0)
-    throw std::runtime_error("palpation: duration_s = " + std::to_string(settings.duration_s) +
-                             " s is shorter than one palpation (" + std::to_string(palpation_seconds + settings.rest_s) +
-                             " s)");
   const double remaining = settings.duration_s - builder.seconds();
   if (remaining * settings.sample_rate_hz >= 1)
     builder.rest(builder.last(), remaining, site == 0 ? site_count - 1 : site - 1, builder.last_axis());

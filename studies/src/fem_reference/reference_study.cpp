@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -530,10 +531,31 @@ void ReferenceStudy::validate() const {
     m.poisson_ratio = nu;
     m.validate();
   }
+  // A tool pushed through the body is no indentation: the depth must stay inside the body's
+  // thickness under the tool (W on B1's flat top, R along the sphere's inward normal on B2 and
+  // B5, the smaller of R and L on B3).
+  const auto check_depth_inside = [&](const meshes::MeshParameters& g) {
+    double thickness = std::numeric_limits<double>::infinity();
+    std::string bound;
+    switch (g.benchmark) {
+      case meshes::Benchmark::B1: thickness = g.body_radius_m, bound = "geometry.body_radius_m (W)"; break;
+      case meshes::Benchmark::B2:
+      case meshes::Benchmark::B5: thickness = g.body_radius_m, bound = "geometry.body_radius_m (R)"; break;
+      case meshes::Benchmark::B3:
+        thickness = std::min(g.body_radius_m, g.local_radius_m), bound = "the smaller of geometry.body_radius_m and local_radius_m";
+        break;
+      default: return;
+    }
+    if (!(punch.depth_m < thickness))
+      throw std::invalid_argument("tool.depth_m = " + format_number(punch.depth_m) + " must be < " + format_number(thickness) +
+                                  " m, the body's thickness under the tool (" + bound + ")");
+  };
+  check_depth_inside(geometry);
   for (const double r : body_radii_m) {
     meshes::MeshParameters g = geometry;
     g.body_radius_m = r;
     g.validate();
+    check_depth_inside(g);
   }
   for (const double h : edge_sizes_m) {
     meshes::MeshParameters g = geometry;

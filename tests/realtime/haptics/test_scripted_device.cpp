@@ -77,8 +77,11 @@ TEST(PalpationTrajectory, IsDeterministicForASeed) {
 
 TEST(PalpationTrajectory, RefusesWhatCannotBeDone) {
   PalpationSettings p = settings();
-  p.duration_s = 1.0;
-  EXPECT_THROW(make_palpation_trajectory(sphere(), p), std::runtime_error);
+  p.duration_s = 1.0;  // one palpation takes 0.8 + 2 × 0.5 + 1.0 + 0.8 + 2 × 0.4 = 4.4 s
+  EXPECT_DOUBLE_EQ(p.first_palpation_s(), 4.4);
+  testing::expect_invalid_argument([&] { make_palpation_trajectory(sphere(), p); }, {"duration_s", "shorter than one palpation"});
+  p.duration_s = 4.4;
+  EXPECT_EQ(make_palpation_script(sphere(), p).palpations, 1);
   p = settings();
   p.sites = {Eigen::Vector3d(0, 0, 0.05), Eigen::Vector3d(0, 0, -0.05)};  // opposite poles
   p.lift_m = 0.0;

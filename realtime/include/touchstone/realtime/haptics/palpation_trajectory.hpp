@@ -39,8 +39,12 @@ struct PalpationSettings {
   /// derived from `seed`. rms_per_axis_m = 0: none.
   hand_motion::TremorSettings tremor;
   std::uint64_t seed = 1;
-  /// Throws std::invalid_argument naming the field.
+  /// Throws std::invalid_argument naming the field; also when duration_s holds no palpation.
   void validate() const;
+  /// One palpation at a site: approach, hold, slide, hold, release and rest [s].
+  double palpation_s() const noexcept;
+  /// The first palpation with the rest before it: the shortest duration_s that holds one [s].
+  double first_palpation_s() const noexcept;
 };
 
 enum class PalpationPhase : std::uint8_t { rest, approach, hold, slide, release, transfer };
