@@ -44,7 +44,7 @@ struct WeightTerms {
 constexpr double gaussian_alpha = 0.4;
 const double gaussian_tail = std::exp(-1.0 / (gaussian_alpha * gaussian_alpha));
 
-WeightTerms weight_terms(Weight weight, double s) noexcept {
+[[gnu::always_inline]] inline WeightTerms weight_terms(Weight weight, double s) noexcept {
   if (!(s < 1.0)) {
     return {};
   }
@@ -103,6 +103,7 @@ constexpr int pair_i[6] = {0, 1, 2, 0, 1, 2};
 constexpr int pair_j[6] = {0, 1, 2, 1, 2, 0};
 
 void clear_outputs(MlsEvaluation& result) noexcept {
+  result.basis_scratch.clear();
   result.value.clear();
   result.gradient.clear();
   result.hessian.clear();
@@ -148,7 +149,7 @@ bool invert_spd(const Eigen::Matrix<double, M, M>& a, Eigen::Matrix<double, M, M
 
 /// Lower triangle of a += w p pᵀ, column by column with fixed-size (vectorised) segments.
 template <int M, int B>
-void accumulate_lower(Eigen::Matrix<double, M, M>& a, const Vec<M>& p, double w) noexcept {
+[[gnu::always_inline]] inline void accumulate_lower(Eigen::Matrix<double, M, M>& a, const Vec<M>& p, double w) noexcept {
   a.template block<M - B, 1>(B, B) += (w * p(B)) * p.template tail<M - B>();
   if constexpr (B + 1 < M) {
     accumulate_lower<M, B + 1>(a, p, w);
@@ -213,6 +214,9 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
       result.hessian.push_back(hw);
     }
     const Vec<M> p = basis_at<M>(delta);
+    const std::size_t row = result.basis_scratch.size();
+    result.basis_scratch.resize(row + M);
+    Eigen::Map<Vec<M>>(result.basis_scratch.data() + row) = p;
     accumulate_lower<M, 0>(moments, p, wt.w);
     rho = std::max(rho, r);
   }
@@ -242,17 +246,21 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
     return MlsStatus::singular_moments;
   }
   inverse = frame.asDiagonal() * inverse * frame.asDiagonal();
-  const auto basis_of = [&](std::size_t k) { return basis_at<M>(positions[result.neighbours[k]] - x); };
+  // The basis at each neighbour, as pass 1 computed it, and t_J = p_Jᵀγ, computed once.
+  const auto basis_of = [&](std::size_t k) { return Eigen::Map<const Vec<M>>(result.basis_scratch.data() + k * M); };
 
   const Vec<M> gamma = inverse.col(0);
   bool finite = gamma.allFinite();
+  std::vector<double>& t_of = result.t_scratch;
+  t_of.resize(n);
+  for (std::size_t k = 0; k < n; ++k) t_of[k] = basis_of(k).dot(gamma);
 
   // Each pass finalises what no later pass needs; a running sum of the outputs catches any
   // overflow so that no Inf/NaN escapes.
   double check = 0.0;
   if (!want_gradients) {
     for (std::size_t k = 0; k < n; ++k) {
-      result.value[k] *= basis_of(k).dot(gamma);
+      result.value[k] *= t_of[k];
       check += result.value[k];
     }
     return finite && std::isfinite(check) ? MlsStatus::ok : MlsStatus::singular_moments;
@@ -261,20 +269,16 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
   // Pass 2: γ,i from A γ,i = p,i − Σ W_J,i t_J p_J.
   Eigen::Matrix<double, M, 3> rhs_1 = Eigen::Matrix<double, M, 3>::Zero();
   rhs_1.template block<3, 3>(1, 0).setIdentity();
-  for (std::size_t k = 0; k < n; ++k) {
-    const Vec<M> p = basis_of(k);
-    rhs_1.noalias() -= p * (p.dot(gamma) * result.gradient[k]).transpose();
-  }
+  for (std::size_t k = 0; k < n; ++k) rhs_1.noalias() -= basis_of(k) * (t_of[k] * result.gradient[k]).transpose();
   const Eigen::Matrix<double, M, 3> gamma_1 = inverse.lazyProduct(rhs_1);
   finite = finite && gamma_1.allFinite();
 
   if (!want_hessians) {
     for (std::size_t k = 0; k < n; ++k) {
-      const Vec<M> p = basis_of(k);
       const double w = result.value[k];
-      const double t = p.dot(gamma);
+      const double t = t_of[k];
       result.value[k] = w * t;
-      result.gradient[k] = t * result.gradient[k] + w * (gamma_1.transpose() * p);
+      result.gradient[k] = t * result.gradient[k] + w * (gamma_1.transpose() * basis_of(k));
       check += result.value[k] + result.gradient[k].sum();
     }
     return finite && std::isfinite(check) ? MlsStatus::ok : MlsStatus::singular_moments;
@@ -290,7 +294,7 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
   for (std::size_t k = 0; k < n; ++k) {
     const Vec<M> p = basis_of(k);
     const double w = result.value[k];
-    const double t = p.dot(gamma);
+    const double t = t_of[k];
     const Eigen::Vector3d t1 = gamma_1.transpose() * p;
     const Eigen::Vector3d gw = result.gradient[k];
     Eigen::Matrix3d& h = result.hessian[k];
@@ -313,7 +317,7 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
   for (std::size_t k = 0; k < n; ++k) {
     const Vec<M> p = basis_of(k);
     const double w = result.value[k];
-    result.value[k] = w * p.dot(gamma);
+    result.value[k] = w * t_of[k];
     const Eigen::Matrix<double, 6, 1> w_t2 = w * (gamma_2.transpose() * p);
     Eigen::Matrix3d& h = result.hessian[k];
     for (int q = 0; q < 3; ++q) {

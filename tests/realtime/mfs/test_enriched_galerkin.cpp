@@ -313,6 +313,30 @@ TEST(EnrichedGalerkin, ReportsTheNodesEachVolumePointSees) {
   }
 }
 
+// The fitted depth of the hemisphere's pole: the value alone (Horner, for the inside tests) is
+// the same function as the value with derivatives, the derivatives match central differences,
+// and the fit follows the sphere.
+TEST(LocalSurface, DepthAloneEqualsDepthWithDerivativesAndTheirDifferences) {
+  const ToolContact contact = testing::pole_contact();
+  const double reach = 1.3 * length;
+  const LocalSurface surface(testing::hemisphere(), contact.point, reach);
+  ASSERT_TRUE(surface.fitted());
+  const double radius = testing::hemisphere_radius_m, step = 1e-6 * reach;
+  for (double u = -0.9 * length; u <= 0.9 * length; u += 0.3 * length)
+    for (double v = -0.9 * length; v <= 0.9 * length; v += 0.3 * length) {
+      double du = 0, dv = 0;
+      const double with_derivatives = surface.depth(u, v, &du, &dv);
+      EXPECT_NEAR(surface.depth(u, v), with_derivatives, 1e-15 * reach) << u << ", " << v;
+      const double fd_u = (surface.depth(u + step, v) - surface.depth(u - step, v)) / (2 * step);
+      const double fd_v = (surface.depth(u, v + step) - surface.depth(u, v - step)) / (2 * step);
+      EXPECT_NEAR(du, fd_u, 1e-7) << u << ", " << v;
+      EXPECT_NEAR(dv, fd_v, 1e-7) << u << ", " << v;
+      // The sphere's own depth below its tangent plane, R − √(R² − r²), to the fit of a
+      // triangulated sphere (its vertices are on the sphere, its facets inside: 0.5 µm here).
+      EXPECT_NEAR(with_derivatives, radius - std::sqrt(radius * radius - u * u - v * v), 5e-5 * reach) << u << ", " << v;
+    }
+}
+
 // The supports are grown so that every quadrature point sees min_point_neighbours nodes, and
 // they must not depend on the order in which the points come: reversing and shuffling every
 // rule gives the same radii, bit for bit.

@@ -38,8 +38,12 @@ class LocalSurface {
   /// there. False when the line misses the surface near x₀ (an organ edge, a fold).
   bool on_line(const Eigen::Vector3d& x0, const Eigen::Vector3d& d, Eigen::Vector3d& point, Eigen::Vector3d& normal) const;
 
- private:
+  /// The fitted depth below the tangent plane at the contact [m], at tangent coordinates (u, v)
+  /// [m] along the surface's own tangent axes, and its slopes ∂d/∂u, ∂d/∂v when asked (fitted
+  /// surfaces only; without slopes it is evaluated by Horner's rule, the inside tests' case).
   double depth(double u, double v, double* du = nullptr, double* dv = nullptr) const;
+
+ private:
   /// Least-squares fit of the depth in the current frame; false when not a height field.
   bool fit(const geometry::TriangleSurface& organ, double reach_m);
 

@@ -45,6 +45,9 @@ struct MlsEvaluation {
   std::vector<double> value;                 ///< h_J(x)
   std::vector<Eigen::Vector3d> gradient;     ///< ∂h_J/∂x_i [1/m]
   std::vector<Eigen::Matrix3d> hessian;      ///< ∂²h_J/∂x_i∂x_k [1/m²] (symmetric)
+  /// Scratch of the evaluation, kept to stay allocation-free: the basis at each neighbour
+  /// (p(x_J − x), one row of the basis size each) and t_J = p_Jᵀγ.
+  std::vector<double> basis_scratch, t_scratch;
 };
 
 /// What to compute: values only, + gradients, + Hessians (collocation needs all three).
