@@ -27,6 +27,7 @@ int run_atlas(AtlasOptions o, ProgramArguments arguments) {
   if (o.no_cache) o.run.cache_directory.clear();
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::OrganAtlasStudy study = studies::read_organ_atlas_study(config);
+  print_defaults_filled(o.config, config.defaults_filled(), o.quiet || fem::MpiSession::rank() != 0);
   o.run.output_directory = o.output.empty() ? "output/" + study.name : o.output;
   studies::run_organ_atlas_study(study, o.run);
   if (fem::MpiSession::rank() == 0 && !o.quiet)

@@ -25,6 +25,7 @@ int run_collision(const CollisionOptions& o) {
   options.plots = !o.no_plots;
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::CollisionStudy study = studies::read_collision_study(config);
+  print_defaults_filled(o.config, config.defaults_filled(), o.quiet);
   options.output_directory = o.output.empty() ? "output/" + study.name : o.output;
   studies::run_collision_study(study, options);
   std::printf("\nresults: %s/results.json, report: %s/report.md\n", options.output_directory.c_str(),

@@ -2,10 +2,11 @@
 // The subcommands of `touchstone`: each file of this folder adds one (its options, its help and
 // what it runs) to the program; main() runs the one the command line names. One dispatch style:
 // every command is an action returning the exit status, and main() turns an exception into a
-// message on stderr and status 1.
+// message on stderr: status 2 for bad input, 1 for a run that failed.
 //
-// Exit status: 0 done; 1 an error (named on stderr); 2 `surface check` found defects;
-// 3 `study` found a regression against its CI baseline.
+// Exit status: 0 done; 1 a run that failed (named on stderr); 2 bad input (a command line or a
+// config refused before anything is written), or `surface check` found defects; 3 `study` found
+// a regression against its CI baseline.
 
 #include <CLI/CLI.hpp>
 
@@ -29,6 +30,10 @@ struct Command {
 /// The short report of a subcommand's output folder (report.md from the reports package). A
 /// report that cannot be written is a note on stderr, not an error: the data are written.
 void write_short_report(const std::string& kind, const std::string& output_directory, bool quiet);
+
+/// Prints, unless quiet, the settings a config file leaves at their defaults
+/// (ConfigTable::defaults_filled), so that no default is filled in without a word.
+void print_defaults_filled(const std::string& config_path, const std::vector<std::string>& filled, bool quiet);
 
 void add_mesh_command(CLI::App& program, std::vector<Command>& commands);
 void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);

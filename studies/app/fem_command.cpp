@@ -25,6 +25,7 @@ int run_fem(FemOptions o, ProgramArguments arguments) {
   o.run.config_text = studies::read_file(o.config);
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::ReferenceStudy study = studies::read_reference_study(config);
+  print_defaults_filled(o.config, config.defaults_filled(), o.run.quiet || fem::MpiSession::rank() != 0);
   if (o.run.output_directory.empty()) o.run.output_directory = "output/" + study.name;
   studies::run_reference_study(study, o.run);
   if (fem::MpiSession::rank() == 0) {

@@ -22,6 +22,7 @@ struct MeshOptions {
 int run_mesh(const MeshOptions& o) {
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::ReferenceStudy study = studies::read_reference_study(config);
+  print_defaults_filled(o.config, config.defaults_filled(), false);
   std::vector<int> levels = study.refinements;
   if (o.refinement) levels = {*o.refinement};
   const std::filesystem::path out(o.output);

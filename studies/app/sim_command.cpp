@@ -39,6 +39,7 @@ int run_sim(const SimCommandOptions& o) {
   std::signal(SIGINT, [](int) { interrupted.store(true); });
   std::signal(SIGTERM, [](int) { interrupted.store(true); });
   const studies::SimScene scene = studies::read_sim_scene(o.scene);
+  print_defaults_filled(o.scene, scene.defaults_filled, false);
   studies::SimOptions options;
   if (o.duration_s) options.duration_s = *o.duration_s;
   if (!o.output.empty()) options.output_directory = o.output;

@@ -18,6 +18,13 @@ void touchstone::app::write_short_report(const std::string& kind, const std::str
   if (!status.ok()) std::fprintf(stderr, "touchstone: note: no report.md: %s\n", status.message.c_str());
 }
 
+void touchstone::app::print_defaults_filled(const std::string& config_path, const std::vector<std::string>& filled, bool quiet) {
+  if (quiet || filled.empty()) return;
+  std::string list;
+  for (const std::string& setting : filled) list += (list.empty() ? "" : "; ") + setting;
+  std::printf("note: %s does not set %zu setting(s); their defaults: %s\n", config_path.c_str(), filled.size(), list.c_str());
+}
+
 int main(int argc, char** argv) {
   using namespace touchstone::app;
   CLI::App program{"Touchstone: a real-time meshless tissue model checked against a converged FEM reference"};

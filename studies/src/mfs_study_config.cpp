@@ -84,8 +84,12 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   ConfigTable geometry = config.table("geometry");
   meshes::MeshParameters& g = study.geometry;
   g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2", "B3", "B5"}, "B2"));
-  g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
-  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
+  // What defines the problem is required (a default would be a guess): the body's size unless an
+  // organ surface gives it, the tool's radius, the material and the depth below.
+  const bool surface_given = geometry.has("surface") || config.table("organ").has("surface");
+  g.body_radius_m = surface_given ? geometry.quantity("body_radius", Dimension::length, g.body_radius_m)
+                                  : geometry.quantity("body_radius", Dimension::length);
+  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length);
   g.contact_polar_angle_rad = geometry.quantity("contact_polar_angle", Dimension::angle, 0.0);
   const bool geometry_has_l = geometry.has("local_radius");
   const double geometry_l = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
@@ -133,12 +137,11 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   g.size_exponent = 1.0;
 
   ConfigTable material = config.table("material");
-  study.material.youngs_modulus_Pa =
-      material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
-  study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
+  study.material.youngs_modulus_Pa = material.quantity("youngs_modulus", Dimension::pressure);
+  study.material.poisson_ratio = material.number("poisson_ratio");
 
   ConfigTable tool = config.table("tool");
-  study.depth_m = tool.quantity("depth", Dimension::length, 0.1 * g.tool_radius_m);
+  study.depth_m = tool.quantity("depth", Dimension::length);
   const auto direction = tool.vector3("direction", Dimension::dimensionless, {{0.0, 0.0, -1.0}});
   study.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
   if (tool.has("point")) {

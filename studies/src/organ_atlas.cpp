@@ -376,14 +376,17 @@ OrganAtlasStudy read_organ_atlas_study(ConfigTable& config) {
   meshes::MeshParameters& g = study.geometry;
   g.benchmark = meshes::benchmark_from_string(geometry.choice("benchmark", {"B1", "B2", "organ"}, "B2"));
   const bool organ = g.benchmark == meshes::Benchmark::Organ;
-  g.body_radius_m = geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
-  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length, g.tool_radius_m);
+  // What defines the problem is required: the body's size (a generated or benchmark body), the
+  // tool's radius and the material.
+  const bool sized_by_body_radius = !organ || config.table("organ").string("generate", "") == "hemisphere";
+  g.body_radius_m = sized_by_body_radius ? geometry.quantity("body_radius", Dimension::length)
+                                         : geometry.quantity("body_radius", Dimension::length, g.body_radius_m);
+  g.tool_radius_m = geometry.quantity("tool_radius", Dimension::length);
   g.local_radius_m = geometry.quantity("local_radius", Dimension::length, 5 * g.tool_radius_m);
 
   ConfigTable material = config.table("material");
-  study.material.youngs_modulus_Pa =
-      material.quantity("youngs_modulus", Dimension::pressure, study.material.youngs_modulus_Pa);
-  study.material.poisson_ratio = material.number("poisson_ratio", study.material.poisson_ratio);
+  study.material.youngs_modulus_Pa = material.quantity("youngs_modulus", Dimension::pressure);
+  study.material.poisson_ratio = material.number("poisson_ratio");
 
   if (organ) {
     // The surface, its units and attachment, as `touchstone fem` reads them; the contact is per sample.

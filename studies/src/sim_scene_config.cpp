@@ -60,13 +60,13 @@ std::vector<SettingField<SimScene>> make_fields() {
   f.push_back(length({"organ", "hemisphere_radius", "m", "generated hemisphere's radius"},
                      [](auto& s) -> auto& { return s.generated_organ.hemisphere_radius_m; }));
 
-  f.push_back(field::quantity<S>({"material", "youngs_modulus", "Pa", "Young's modulus E"}, Dimension::pressure,
-                                 [](auto& s) -> auto& { return s.settings.material.youngs_modulus_Pa; }));
-  f.push_back(real({"material", "poisson_ratio", "", "Poisson's ratio"},
-                   [](auto& s) -> auto& { return s.settings.material.poisson_ratio; }));
+  f.push_back(field::required(field::quantity<S>({"material", "youngs_modulus", "Pa", "Young's modulus E"}, Dimension::pressure,
+                                                 [](auto& s) -> auto& { return s.settings.material.youngs_modulus_Pa; })));
+  f.push_back(field::required(real({"material", "poisson_ratio", "", "Poisson's ratio"},
+                                   [](auto& s) -> auto& { return s.settings.material.poisson_ratio; })));
 
-  f.push_back(length({"tool", "tip_radius", "m", "radius a of the tool tip (the contact patch)"},
-                     [](auto& s) -> auto& { return s.settings.tool.tip_radius_m; }));
+  f.push_back(field::required(length({"tool", "tip_radius", "m", "radius a of the tool tip (the contact patch)"},
+                                     [](auto& s) -> auto& { return s.settings.tool.tip_radius_m; })));
   f.push_back(length({"tool", "shaft_length", "m", "drawn shaft length"}, [](auto& s) -> auto& { return s.settings.tool.shaft_length_m; }));
   f.push_back(length({"tool", "shaft_radius", "m", "drawn shaft radius"}, [](auto& s) -> auto& { return s.settings.tool.shaft_radius_m; }));
   f.push_back(field::choice<S>({"tool", "contact", "", "frictionless or bonded"}, contact_conditions,
@@ -255,6 +255,7 @@ SimScene read_sim_scene(const std::string& path) {
   } catch (const std::invalid_argument& error) {
     throw ConfigError(path + ": " + error.what());
   }
+  scene.defaults_filled = config.defaults_filled();
   return scene;
 }
 

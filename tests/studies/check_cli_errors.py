@@ -46,6 +46,20 @@ out = scratch / "accept"
 check("study accept without [ci]", ["study", "accept", str(configs / "hemisphere.toml"), "--out", str(out)], BAD_INPUT,
       "[ci] baseline is not set", absent=[out])
 
+# --- An empty or near-empty config runs nothing on defaults: what defines the problem is required
+for command, text, named in [
+        ("fem", 'study = "empty"\n', "material.youngs_modulus: missing"),
+        ("mesh", 'study = "empty"\n[material]\nyoungs_modulus = "10 kPa"\npoisson_ratio = 0.45\n', "geometry.tool_radius: missing"),
+        ("mfs", "", "missing key 'geometry.body_radius'"),
+        ("atlas", "", "missing key 'geometry.body_radius'"),
+        ("sim", 'scene = "empty"\n', "material.youngs_modulus: missing"),
+        ("study", '[problem]\nbenchmark = "B3"\n', "missing key 'problem.body_radius'")]:
+    folder = scratch / f"empty_{command}"
+    folder.mkdir()
+    (folder / "empty.toml").write_text(text)
+    check(f"{command}: a near-empty config", [command, str(folder / "empty.toml"), "--out", str(folder / "out")], BAD_INPUT,
+          named, absent=[folder / "out", folder / ".cache"], cwd=folder)
+
 # --- Bad numbers at every entry: one key changed in a valid config per case ----------------------
 # Base configs, each valid as written (every one is also run unchanged by other tests).
 MFS = """study = "cli_check"
@@ -184,6 +198,11 @@ print(f"{'ok  ' if result.returncode == 0 and meshes else 'FAIL'} mesh --out new
       f"{len(meshes)} mesh file(s); {result.stderr.strip()[:200]}")
 if result.returncode != 0 or not meshes:
     failures.append("mesh --out new folder")
+# The defaults a file leaves out are printed: tiny_b2.toml sets no size_exponent nor solver method.
+printed = "does not set" in result.stdout and "mesh.size_exponent = 0.75" in result.stdout and "solver.method = " in result.stdout
+print(f"{'ok  ' if printed else 'FAIL'} defaults filled in are printed: {result.stdout.strip()[:300]}")
+if not printed:
+    failures.append("defaults filled in are printed")
 
 if print_table:
     commands = list(BASES)

@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -68,6 +69,13 @@ class RemoveTemporaries : public ::testing::Environment {
 const auto* const remove_temporaries = ::testing::AddGlobalTestEnvironment(new RemoveTemporaries);
 
 /// Reads `text` as a config named `name`; the ConfigError message, or "" when it is valid.
+// What every MFS study file must set (the problem: a default would be a guess), for the
+// snippets below that test something else; the body's size comes with the organ or separately.
+const std::string problem_keys =
+    "[geometry]\ntool_radius = \"2.5 mm\"\n[material]\nyoungs_modulus = \"10 kPa\"\npoisson_ratio = 0.45\n[tool]\ndepth = \"0.25 mm\"\n";
+const std::string problem_keys_with_body =
+    "[geometry]\nbody_radius = \"50 mm\"\ntool_radius = \"2.5 mm\"\n[material]\nyoungs_modulus = \"10 kPa\"\npoisson_ratio = 0.45\n[tool]\ndepth = \"0.25 mm\"\n";
+
 std::string config_error(const std::string& text, const std::string& name = "bad.toml") {
   try {
     ConfigTable config = ConfigTable::from_string(text, name);
@@ -237,7 +245,7 @@ TEST_F(MfsStudyRun, OrganSurfaceInEveryFormatGivesTheSameForce) {
   EXPECT_NEAR(force_N["organ.obj"], force_N["organ.msh"], 1e-9 * std::abs(force_N["organ.msh"]));
   EXPECT_NEAR(force_N["organ.stl"], force_N["organ.msh"], 1e-5 * std::abs(force_N["organ.msh"]));
 
-  const std::string message = config_error("[organ]\nsurface = \"organ.stl\"\nclamped_group = \"base\"\n");
+  const std::string message = config_error("[organ]\nsurface = \"organ.stl\"\nclamped_group = \"base\"\n" + problem_keys);
   EXPECT_NE(message.find("organ.clamped_group"), std::string::npos) << message;
   EXPECT_NE(message.find(".msh"), std::string::npos) << message;
 }
@@ -273,6 +281,31 @@ TEST(MfsStudyConfig, UnknownKeyNamesFileAndKey) {
   EXPECT_NE(message.find("did you mean 'sprinkling.local_radius'"), std::string::npos) << message;
 }
 
+// The keys that define the problem are required, named when missing (with a misspelt key that
+// may be the one meant); every other key the file leaves out is a default that is reported.
+TEST(MfsStudyConfig, TheProblemIsRequiredAndDefaultsAreReported) {
+  for (const char* key : {"tool_radius", "body_radius", "youngs_modulus", "poisson_ratio", "depth"}) {
+    std::string text = problem_keys_with_body;
+    const std::size_t at = text.find(std::string(key) + " =");
+    ASSERT_NE(at, std::string::npos) << key;
+    text.erase(at, text.find('\n', at) + 1 - at);
+    const std::string message = config_error(text);
+    EXPECT_NE(message.find(key), std::string::npos) << message;
+    EXPECT_NE(message.find("missing"), std::string::npos) << message;
+  }
+  std::string misspelt = problem_keys_with_body;
+  misspelt.replace(misspelt.find("tool_radius"), 11, "tool_radus");
+  EXPECT_NE(config_error(misspelt).find("is 'geometry.tool_radus' a misspelling of it?"), std::string::npos) << config_error(misspelt);
+
+  ConfigTable config = ConfigTable::from_string(problem_keys_with_body, "minimal.toml");
+  read_mfs_study(config);
+  const std::vector<std::string> filled = config.defaults_filled();
+  const auto has = [&](const std::string& setting) { return std::find(filled.begin(), filled.end(), setting) != filled.end(); };
+  EXPECT_TRUE(has("geometry.local_radius = 0.0125 m")) << ::testing::PrintToString(filled);  // 5 a
+  EXPECT_TRUE(has("geometry.benchmark = \"B2\"")) << ::testing::PrintToString(filled);
+  for (const std::string& setting : filled) EXPECT_EQ(setting.find("youngs_modulus"), std::string::npos) << setting;
+}
+
 TEST(MfsStudyConfig, BadValuesNameTheField) {
   std::string message = config_error(edited("node_count = [34, 60]", "node_count = 5"));
   EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
@@ -297,18 +330,18 @@ TEST(MfsStudyConfig, BadValuesNameTheField) {
   message = config_error(edited("local_radius = \"12.5 mm\"", "local_radius = \"4 mm\""));
   EXPECT_NE(message.find("local_radius"), std::string::npos) << message;
 
-  message = config_error("paper_mode = true\n[model]\npaper_mode = true\n");
+  message = config_error("paper_mode = true\n[model]\npaper_mode = true\n" + problem_keys_with_body);
   EXPECT_NE(message.find("paper_mode"), std::string::npos) << message;
 }
 
 TEST(MfsStudyConfig, SurfacePathIsRelativeToTheConfigFolder) {
   fs::create_directories(temp_directory() / "organs");
   write_file_atomically((temp_directory() / "organs" / "liver.msh").string(), "not read before the run\n");
-  ConfigTable config = ConfigTable::from_string("[organ]\nsurface = \"organs/liver.msh\"\n", "organ.toml");
+  ConfigTable config = ConfigTable::from_string("[organ]\nsurface = \"organs/liver.msh\"\n" + problem_keys, "organ.toml");
   const MfsStudy study = read_mfs_study(config, temp_directory().string());
   EXPECT_EQ(fs::path(study.surface_path), fs::absolute(temp_directory() / "organs" / "liver.msh").lexically_normal());
 
-  const std::string message = config_error("[organ]\nsurface = \"organs/kidney.msh\"\n");
+  const std::string message = config_error("[organ]\nsurface = \"organs/kidney.msh\"\n" + problem_keys);
   EXPECT_NE(message.find("organ.surface"), std::string::npos) << message;
   EXPECT_NE(message.find("kidney.msh"), std::string::npos) << message;
 }
@@ -326,7 +359,7 @@ TEST(MfsStudyConfig, B1IsTheGeneratedCylinderWithItsClampedBase) {
 }
 
 TEST(MfsStudyConfig, PaperModeTakesThePapersDefaults) {
-  ConfigTable config = ConfigTable::from_string("paper_mode = true\n", "paper.toml");
+  ConfigTable config = ConfigTable::from_string("paper_mode = true\n" + problem_keys_with_body, "paper.toml");
   const MfsStudy study = read_mfs_study(config);
   EXPECT_TRUE(study.model.paper_mode);
   EXPECT_EQ(study.node_counts, (std::vector<int>{34}));

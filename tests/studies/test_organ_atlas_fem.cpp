@@ -99,7 +99,9 @@ TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
   ConfigTable stomach = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/atlas_stomach.toml");
   EXPECT_DOUBLE_EQ(read_organ_atlas_study(stomach).region_radius_m, 0.02);
   ConfigTable angles_on_organ = ConfigTable::from_string(
-      "[geometry]\nbenchmark = \"organ\"\n[organ]\ngenerate = \"stomach\"\n[atlas]\npolar_angles = [\"10 deg\"]\n", "organ.toml");
+      "[geometry]\nbenchmark = \"organ\"\ntool_radius = \"2.5 mm\"\n[material]\nyoungs_modulus = \"10 kPa\"\npoisson_ratio = 0.45\n"
+      "[organ]\ngenerate = \"stomach\"\n[atlas]\npolar_angles = [\"10 deg\"]\n",
+      "organ.toml");
   try {
     read_organ_atlas_study(angles_on_organ);
     FAIL() << "polar_angles was accepted on an organ";
@@ -108,7 +110,18 @@ TEST(OrganAtlasStudyFile, ShippedStudiesReadAndUnknownKeysAreNamed) {
   }
   ConfigTable hemisphere = ConfigTable::from_file(std::string(TOUCHSTONE_SOURCE_DIR) + "/studies/configs/atlas_hemisphere.toml");
   EXPECT_NEAR(read_organ_atlas_study(hemisphere).polar_angles_rad.at(2), 30 * 3.14159265358979323846 / 180, 1e-15);
-  ConfigTable typo = ConfigTable::from_string("[atlas]\npolar_angle = [\"10 deg\"]\n", "typo.toml");
+  // The problem's keys are required (a default would be a guess): named when missing.
+  ConfigTable bare = ConfigTable::from_string("[atlas]\npolar_angles = [\"10 deg\"]\n", "bare.toml");
+  try {
+    read_organ_atlas_study(bare);
+    FAIL() << "an atlas without the body, tool and material was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("missing key 'geometry.body_radius'"), std::string::npos) << error.what();
+  }
+  ConfigTable typo = ConfigTable::from_string(
+      "[geometry]\nbody_radius = \"50 mm\"\ntool_radius = \"2.5 mm\"\n[material]\nyoungs_modulus = \"10 kPa\"\npoisson_ratio = 0.45\n"
+      "[atlas]\npolar_angle = [\"10 deg\"]\n",
+      "typo.toml");
   try {
     read_organ_atlas_study(typo);
     FAIL() << "an unknown key was accepted";

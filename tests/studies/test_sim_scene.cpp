@@ -113,9 +113,25 @@ force_history = true
   EXPECT_EQ(params.at("directory"), "output/changed");
 }
 
+/// `text` with what every scene must set (the material and the tool tip: a default would be a
+/// guess) added where it lacks them, so that a snippet tests only its own error.
+std::string with_required_keys(std::string text) {
+  const auto ensure = [&text](const std::string& table, const std::string& line) {
+    const std::string key = line.substr(0, line.find(' '));
+    if (text.find("[" + table + "]\n") == std::string::npos)
+      text += "[" + table + "]\n" + line + "\n";
+    else if (text.find(key + " =") == std::string::npos)
+      text.insert(text.find("[" + table + "]\n") + table.size() + 3, line + "\n");
+  };
+  ensure("material", "youngs_modulus = \"10 kPa\"");
+  ensure("material", "poisson_ratio = 0.45");
+  ensure("tool", "tip_radius = \"2.5 mm\"");
+  return text;
+}
+
 void expect_scene_error(const std::string& text, const std::string& fragment) {
   touchstone::testing::TemporaryDirectory directory("scene");
-  const std::string file = directory.file("bad.toml", text);
+  const std::string file = directory.file("bad.toml", with_required_keys(text));
   try {
     read_sim_scene(file);
     ADD_FAILURE() << "accepted; expected an error mentioning " << fragment;
@@ -143,6 +159,33 @@ TEST(SimScene, BadScenesNameTheFileAndKey) {
                      "tool.tip_radius");
 }
 
+// An empty scene runs nothing on defaults: the material and the tool tip are required, named;
+// what a complete scene leaves out is reported as its defaults.
+TEST(SimScene, TheMaterialAndTheTipAreRequiredAndDefaultsAreReported) {
+  touchstone::testing::TemporaryDirectory directory("scene");
+  for (const auto& [text, key] : std::vector<std::pair<std::string, std::string>>{
+           {"scene = \"empty\"\n", "material.youngs_modulus"},
+           {"[material]\nyoungs_modulus = \"10 kPa\"\n", "material.poisson_ratio"},
+           {"[material]\nyoungs_modulus = \"10 kPa\"\npoisson_ratio = 0.45\n", "tool.tip_radius"}}) {
+    try {
+      read_sim_scene(directory.file("partial.toml", text));
+      ADD_FAILURE() << "accepted without " << key;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key + ": missing"), std::string::npos) << e.what();
+    }
+  }
+  const SimScene scene = read_sim_scene(directory.file("minimal.toml", with_required_keys("scene = \"minimal\"\n")));
+  const auto& filled = scene.defaults_filled;
+  const auto has = [&](const std::string& prefix) {
+    return std::any_of(filled.begin(), filled.end(), [&](const std::string& s) { return s.rfind(prefix, 0) == 0; });
+  };
+  EXPECT_TRUE(has("duration = 60 s")) << ::testing::PrintToString(filled);
+  EXPECT_TRUE(has("rates.haptic_hz = 1000")) << ::testing::PrintToString(filled);
+  EXPECT_TRUE(has("model.sprinkling.local_radius = 0.0125 m")) << ::testing::PrintToString(filled);  // 5 tip radii
+  EXPECT_FALSE(has("material.")) << ::testing::PrintToString(filled);
+  EXPECT_FALSE(has("tool.tip_radius")) << ::testing::PrintToString(filled);
+}
+
 /// A small scene on a sphere written to a file: collocation (fast builds), 6 s of palpation.
 std::string small_scene(const touchstone::testing::TemporaryDirectory& directory) {
   const auto mesh = geometry::icosphere(4, 0.04);
@@ -152,6 +195,11 @@ scene = "small"
 duration = "6 s"
 [organ]
 surface = "sphere.vtp"
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+tip_radius = "2.5 mm"
 [model]
 formulation = "collocation"
 [model.sprinkling]
@@ -380,6 +428,11 @@ duration = "3 s"
 shape = "hemisphere"
 triangles = 600
 hemisphere_radius = "40 mm"
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+tip_radius = "2.5 mm"
 [model]
 formulation = "collocation"
 [model.sprinkling]

@@ -34,7 +34,7 @@ std::string resolve(const std::string& directory, const std::string& path) {
 ReferenceStudy read_fem_file(const std::string& path, const std::string& key, const ComparisonProblem& problem,
                              bool same_domain) {
   ConfigTable table = ConfigTable::from_file(path);
-  ReferenceStudy study = read_reference_study(table);
+  ReferenceStudy study = read_reference_study(table, /*problem_imposed=*/true);
   if (same_domain && study.geometry.benchmark != problem.benchmark)
     throw ConfigError(key + ": '" + path + "' is a " + meshes::to_string(study.geometry.benchmark) +
                       " study, but problem.benchmark is " + meshes::to_string(problem.benchmark));
@@ -202,12 +202,13 @@ ComparisonProblem read_problem(ConfigTable& problem) {
   const std::string benchmark = problem.choice("benchmark", {"B1", "B2", "B3", "B4", "B5"}, "B3");
   p.point_tool = benchmark == "B4";
   p.benchmark = meshes::benchmark_from_string(p.point_tool ? "B2" : benchmark);
-  p.body_radius_m = problem.quantity("body_radius", Dimension::length, p.body_radius_m);
-  p.tool_radius_m = problem.quantity("tool_radius", Dimension::length, p.tool_radius_m);
+  // What defines the problem is required: a default would be a guess.
+  p.body_radius_m = problem.quantity("body_radius", Dimension::length);
+  p.tool_radius_m = problem.quantity("tool_radius", Dimension::length);
   p.local_radius_m = problem.quantity("local_radius", Dimension::length, 5 * p.tool_radius_m);
   p.contact_polar_angle_rad = problem.quantity("contact_polar_angle", Dimension::angle, 0.0);
-  p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure, p.material.youngs_modulus_Pa);
-  p.material.poisson_ratio = problem.number("poisson_ratio", p.material.poisson_ratio);
+  p.material.youngs_modulus_Pa = problem.quantity("youngs_modulus", Dimension::pressure);
+  p.material.poisson_ratio = problem.number("poisson_ratio");
   p.contact = geometry::contact_condition_from_string(problem.choice("contact", {"frictionless", "bonded"}, "frictionless"));
   // The direction: given, or the inward normal tilted by `tilt` toward the base in the
   // meridian plane (e_θ = (cos θ, 0, −sin θ)); at the pole with no tilt exactly (0, 0, −1).
@@ -220,6 +221,7 @@ ComparisonProblem read_problem(ConfigTable& problem) {
   const Eigen::Vector3d tilted = tilt == 0 ? inward : Eigen::Vector3d(std::cos(tilt) * inward + std::sin(tilt) * toward_base);
   const auto direction = problem.vector3("direction", Dimension::dimensionless, {{tilted[0], tilted[1], tilted[2]}});
   p.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
+  if (!problem.has("depths")) throw ConfigError(problem.where("depths") + ": missing (required: the tool's depths)");
   p.depths_m = problem.quantity_list("depths", Dimension::length, p.depths_m);
   return p;
 }

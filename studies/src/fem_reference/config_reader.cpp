@@ -7,6 +7,7 @@
 #include <climits>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -166,6 +167,16 @@ struct ConfigTable::State {
   // Every key an accessor asked for, present or not: candidates for "did you mean".
   std::set<std::string> asked;
   std::map<std::string, std::shared_ptr<State>> children;
+  // Keys read with a default the file does not set ("section.key = value"), shared by the file.
+  struct Defaults {
+    std::vector<std::string> filled;
+    std::set<std::string> keys;
+  };
+  std::shared_ptr<Defaults> defaults = std::make_shared<Defaults>();
+
+  void note_default(const std::string& key, const std::string& value_text) {
+    if (defaults->keys.insert(dotted(key)).second) defaults->filled.push_back(dotted(key) + " = " + value_text);
+  }
 
   std::string dotted(const std::string& key) const { return path.empty() ? key : path + "." + key; }
   std::string where(const std::string& key) const { return source + ": " + dotted(key); }
@@ -180,8 +191,23 @@ struct ConfigTable::State {
 
   const toml::node& require(const std::string& key) {
     const toml::node* node = get(key);
-    if (node == nullptr) throw ConfigError(source + ": missing key '" + dotted(key) + "'");
+    if (node == nullptr) throw ConfigError(source + ": missing key '" + dotted(key) + "'" + misspelling_hint(key));
     return *node;
+  }
+
+  // A key the file has, spelled close to the missing `key`: " (is 'x' a misspelling of it?)".
+  std::string misspelling_hint(const std::string& key) const {
+    std::string best;
+    std::size_t best_distance = (key.size() <= 3 ? std::size_t{1} : std::max<std::size_t>(2, key.size() / 4)) + 1;
+    for (const auto& [key_object, node] : *table) {
+      const std::string present(key_object.str());
+      const std::size_t distance = edit_distance(key, present);
+      if (distance > 0 && distance < best_distance) {
+        best = present;
+        best_distance = distance;
+      }
+    }
+    return best.empty() ? "" : " (is '" + dotted(best) + "' a misspelling of it?)";
   }
 
   [[noreturn]] void type_error(const std::string& key, const toml::node& node,
@@ -243,6 +269,28 @@ std::optional<double> node_quantity(const toml::node& node, Dimension dimension,
 
 }  // namespace
 
+namespace {
+
+std::string number_text(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value);
+  return text;
+}
+
+std::string quantity_text(double value, Dimension dimension) {
+  const char* unit = dimension_info(dimension).si_unit;
+  return number_text(value) + (unit[0] == '\0' ? "" : std::string(" ") + unit);
+}
+
+template <class T, class Text>
+std::string list_text(const std::vector<T>& values, Text text) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < values.size(); ++i) out += (i == 0 ? "" : ", ") + text(values[i]);
+  return out + "]";
+}
+
+}  // namespace
+
 ConfigTable::ConfigTable(std::shared_ptr<State> state) : state_(std::move(state)) {}
 ConfigTable::ConfigTable(ConfigTable&&) noexcept = default;
 ConfigTable& ConfigTable::operator=(ConfigTable&&) noexcept = default;
@@ -292,6 +340,7 @@ ConfigTable ConfigTable::table(const std::string& key, bool required) {
   auto child = std::make_shared<State>();
   child->source = state.source;
   child->path = state.dotted(key);
+  child->defaults = state.defaults;
   if (node == nullptr) {
     child->table = std::make_shared<const toml::table>();
   } else if (const toml::table* sub_table = node->as_table()) {
@@ -305,7 +354,10 @@ ConfigTable ConfigTable::table(const std::string& key, bool required) {
 
 double ConfigTable::quantity(const std::string& key, Dimension dimension, double default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, quantity_text(default_value, dimension));
+    return default_value;
+  }
   const auto value = node_quantity(*node, dimension, where(key));
   if (!value) state_->type_error(key, *node, expected_quantity(dimension_info(dimension)));
   return *value;
@@ -319,31 +371,49 @@ double ConfigTable::quantity(const std::string& key, Dimension dimension) {
 }
 
 double ConfigTable::number(const std::string& key, double default_value) {
-  const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
-  if (node->is_string()) state_->type_error(key, *node, "a number (without quotes)");
-  const auto value = node_quantity(*node, Dimension::dimensionless, where(key));
-  if (!value) state_->type_error(key, *node, "a number");
+  if (!has(key)) {
+    state_->get(key);  // asked: a candidate for "did you mean"
+    state_->note_default(key, number_text(default_value));
+    return default_value;
+  }
+  return number(key);
+}
+
+double ConfigTable::number(const std::string& key) {
+  const toml::node& node = state_->require(key);
+  if (node.is_string()) state_->type_error(key, node, "a number (without quotes)");
+  const auto value = node_quantity(node, Dimension::dimensionless, where(key));
+  if (!value) state_->type_error(key, node, "a number");
   return *value;
 }
 
 std::int64_t ConfigTable::integer(const std::string& key, std::int64_t default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, std::to_string(default_value));
+    return default_value;
+  }
   if (const auto* integer = node->as_integer()) return integer->get();
   state_->type_error(key, *node, "an integer");
 }
 
 bool ConfigTable::boolean(const std::string& key, bool default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, default_value ? "true" : "false");
+    return default_value;
+  }
   if (const auto* boolean = node->as_boolean()) return boolean->get();
   state_->type_error(key, *node, "true or false");
 }
 
 std::string ConfigTable::string(const std::string& key, const std::string& default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    // An empty default is "not set" (an optional file or name), not a value filled in.
+    if (!default_value.empty()) state_->note_default(key, "\"" + default_value + "\"");
+    return default_value;
+  }
   if (const auto* string = node->as_string()) return string->get();
   state_->type_error(key, *node, "a string");
 }
@@ -370,7 +440,10 @@ std::string ConfigTable::choice(const std::string& key, const std::vector<std::s
   std::string list;
   for (const std::string& choice : choices) list += (list.empty() ? "'" : ", '") + choice + "'";
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, "\"" + default_value + "\"");
+    return default_value;
+  }
   const auto* string = node->as_string();
   if (string == nullptr) state_->type_error(key, *node, "one of " + list);
   if (std::find(choices.begin(), choices.end(), string->get()) == choices.end()) {
@@ -385,7 +458,10 @@ std::vector<std::string> ConfigTable::choice_list(const std::string& key,
   std::string list;
   for (const std::string& choice : choices) list += (list.empty() ? "'" : ", '") + choice + "'";
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, list_text(default_value, [](const std::string& v) { return "\"" + v + "\""; }));
+    return default_value;
+  }
   std::vector<const toml::node*> elements;
   if (node->is_string()) {
     elements.push_back(node);
@@ -408,7 +484,11 @@ std::vector<std::string> ConfigTable::choice_list(const std::string& key,
 std::array<double, 3> ConfigTable::vector3(const std::string& key, Dimension dimension,
                                            const std::array<double, 3>& default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, list_text(std::vector<double>(default_value.begin(), default_value.end()),
+                                        [dimension](double v) { return quantity_text(v, dimension); }));
+    return default_value;
+  }
   const DimensionInfo& info = dimension_info(dimension);
   const std::string expected = std::string("an array of 3 numbers (in ") +
                                (info.si_unit[0] == '\0' ? "SI" : info.si_unit) +
@@ -435,7 +515,10 @@ std::array<double, 3> ConfigTable::vector3(const std::string& key, Dimension dim
 std::vector<double> ConfigTable::quantity_list(const std::string& key, Dimension dimension,
                                                const std::vector<double>& default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, list_text(default_value, [dimension](double v) { return quantity_text(v, dimension); }));
+    return default_value;
+  }
   const DimensionInfo& info = dimension_info(dimension);
   const toml::array* array = node->as_array();
   if (array == nullptr) {
@@ -462,7 +545,10 @@ std::vector<double> ConfigTable::quantity_list(const std::string& key, Dimension
 std::vector<std::int64_t> ConfigTable::integer_list(
     const std::string& key, const std::vector<std::int64_t>& default_value) {
   const toml::node* node = state_->get(key);
-  if (node == nullptr) return default_value;
+  if (node == nullptr) {
+    state_->note_default(key, list_text(default_value, [](std::int64_t v) { return std::to_string(v); }));
+    return default_value;
+  }
   if (const auto* integer = node->as_integer()) return {integer->get()};
   const toml::array* array = node->as_array();
   if (array == nullptr) state_->type_error(key, *node, "an integer or an array of integers");
@@ -489,6 +575,12 @@ void ConfigTable::finish() const {
 }
 
 std::string ConfigTable::where(const std::string& key) const { return state_->where(key); }
+
+std::vector<std::string> ConfigTable::defaults_filled() const { return state_->defaults->filled; }
+
+void ConfigTable::require(const std::string& key, const std::string& why) const {
+  if (!has(key)) throw ConfigError(where(key) + ": missing (" + why + ")" + state_->misspelling_hint(key));
+}
 
 int checked_int(const std::string& where, std::int64_t value) {
   if (value < INT_MIN || value > INT_MAX)

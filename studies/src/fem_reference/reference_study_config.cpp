@@ -186,9 +186,24 @@ ReferenceStudy default_study() {
 
 }  // namespace
 
-ReferenceStudy read_reference_study(ConfigTable& config) {
+/// What defines the indentation problem, which a study file must set: a default would be a
+/// guess. The body's size only for the benchmarks, whose shape it sets (an organ file has its own).
+void require_problem_keys(ConfigTable& config, const ReferenceStudy& study) {
+  const meshes::Benchmark benchmark = study.geometry.benchmark;
+  std::vector<std::pair<std::string, std::string>> keys{{"material", "youngs_modulus"}, {"material", "poisson_ratio"}};
+  if (benchmark != meshes::Benchmark::Box) {
+    keys.insert(keys.end(), {{"geometry", "tool_radius"}, {"tool", "depth"}});
+    if (benchmark != meshes::Benchmark::Organ) keys.emplace_back("geometry", "body_radius");
+  }
+  for (const auto& [section, key] : keys)
+    config.table(section).require(key, "required: it defines the problem, and no default would fit every study");
+}
+
+ReferenceStudy read_reference_study(ConfigTable& config, bool problem_imposed) {
   ReferenceStudy study = default_study();
   read_fields(study_fields(), config, study);
+  config.finish();  // a misspelt key first: it may be the missing one
+  if (!problem_imposed) require_problem_keys(config, study);
   finish_and_validate(config, study);
   return study;
 }

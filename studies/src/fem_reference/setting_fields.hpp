@@ -194,6 +194,21 @@ SettingField<Settings> quantity_list(FieldNames n, Dimension dimension, Get get)
           [get](const Settings& s) { return nlohmann::json(get(s)); }};
 }
 
+/// The same field, but the file must set it (when `needed` says so for the settings read so
+/// far): a ConfigError naming the key instead of a default. For what defines the problem (the
+/// material, the tool's size and depth, the body's size), where a default would be a guess.
+template <class Settings>
+SettingField<Settings> required(SettingField<Settings> f, std::function<bool(const Settings&)> needed = {}) {
+  const auto read = f.read;
+  const std::string key = f.key;
+  f.read = [read, key, needed](ConfigTable& t, Settings& s) {
+    if (!needed || needed(s)) t.require(key, "required: it defines the problem, and no default would fit every study");
+    read(t, s);
+  };
+  f.doc += " (required)";
+  return f;
+}
+
 }  // namespace field
 
 /// Appends `fields` (a table of a member struct) to `out` (the table of the struct holding it),

@@ -26,6 +26,9 @@ std::string to_string(DeviceKind kind);
 struct SimScene {
   std::string name = "scene";
   std::string config_path;
+  /// The settings the scene file leaves at their defaults, "section.key = value" (printed by
+  /// `touchstone sim`, so that nothing is filled in without a word).
+  std::vector<std::string> defaults_filled;
   /// The organ: a surface file, or (empty) a generated shape.
   std::string surface_path;
   double surface_unit_scale = 1.0;  ///< metres per unit of the surface file (1e-3: millimetres)

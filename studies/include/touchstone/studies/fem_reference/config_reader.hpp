@@ -46,6 +46,9 @@ class ConfigTable {
   ~ConfigTable();
 
   bool has(const std::string& key) const;
+  /// Throws a ConfigError naming the key and `why` it is required when this table lacks it
+  /// (and a key of the file spelled close to it, if any).
+  void require(const std::string& key, const std::string& why) const;
   /// Sub-table (marked used). `required` false: an empty table when absent.
   ConfigTable table(const std::string& key, bool required = false);
 
@@ -53,6 +56,7 @@ class ConfigTable {
   double quantity(const std::string& key, Dimension dimension, double default_value);
   double quantity(const std::string& key, Dimension dimension);  ///< required
   double number(const std::string& key, double default_value);
+  double number(const std::string& key);  ///< required
   std::int64_t integer(const std::string& key, std::int64_t default_value);
   bool boolean(const std::string& key, bool default_value);
   std::string string(const std::string& key, const std::string& default_value);
@@ -81,6 +85,11 @@ class ConfigTable {
 
   /// "file: section.key" for messages about a key's value found invalid after reading.
   std::string where(const std::string& key) const;
+
+  /// Every key read with a default that the file does not set, as "section.key = value" (SI,
+  /// with the unit) in the order first read; shared by the whole file, sub-tables included.
+  /// The commands print it, so that nothing is filled in without a word.
+  std::vector<std::string> defaults_filled() const;
 
  private:
   struct State;

@@ -41,8 +41,11 @@ struct ReferenceStudy {
   void validate() const;
 };
 
-/// Reads a study from a config file; every key is checked (unknown keys are errors).
-ReferenceStudy read_reference_study(ConfigTable& config);
+/// Reads a study from a config file; every key is checked (unknown keys are errors). The keys
+/// that define the problem (material, tool radius and depth, the benchmark's body size) are
+/// required, unless `problem_imposed`: a file read for `touchstone study`, whose [problem]
+/// replaces them.
+ReferenceStudy read_reference_study(ConfigTable& config, bool problem_imposed = false);
 
 /// The study with every default filled in, quantities in SI, as TOML that read_reference_study
 /// reads back to the same study (written as config.resolved.toml next to results.json).
