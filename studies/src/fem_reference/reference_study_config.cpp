@@ -125,7 +125,7 @@ std::vector<SettingField<S>> make_fields() {
                                  [](auto& s) -> auto& { return s.material.youngs_modulus_Pa; }));
   f.push_back(real({"material", "poisson_ratio", "", "Poisson's ratio"}, [](auto& s) -> auto& { return s.material.poisson_ratio; }));
 
-  SettingField<S> depth = length({"tool", "depth", "m", "indentation depth (default a / 10)"}, [](auto& s) -> auto& { return s.punch.depth_m; });
+  SettingField<S> depth = length({"tool", "depth", "m", "indentation depth (required in a fem file; a study imposes its own)"}, [](auto& s) -> auto& { return s.punch.depth_m; });
   depth.read = [](ConfigTable& t, S& s) { s.punch.depth_m = t.quantity("depth", Dimension::length, 0.1 * s.geometry.tool_radius_m); };
   f.push_back(depth);
   f.push_back({"tool", "direction", "", "", "direction of the patch displacement (normalised on use)",
