@@ -38,7 +38,7 @@ check("unknown subcommand", ["frobnicate"], BAD_INPUT, "unknown subcommand 'frob
 scene = str(configs / "scenes" / "palpation.toml")
 check("sim --duration -5", ["sim", scene, "--duration", "-5"], BAD_INPUT, "must be a finite number of seconds >= 0")
 check("sim --duration nan", ["sim", scene, "--duration", "nan"], BAD_INPUT, "must be a finite number of seconds >= 0")
-check("mfs without a config", ["mfs"], BAD_INPUT, "config")
+check("mfs without a config", ["mfs"], BAD_INPUT, "config is required")
 out = scratch / "only"
 check("study --only nomatch", ["study", str(configs / "ci_accuracy.toml"), "--only", "nomatch", "--out", str(out)],
       BAD_INPUT, "--only matches no MFS case", absent=[out])
@@ -48,11 +48,11 @@ check("study accept without [ci]", ["study", "accept", str(configs / "hemisphere
 
 # --- An empty or near-empty config runs nothing on defaults: what defines the problem is required
 for command, text, named in [
-        ("fem", 'study = "empty"\n', "material.youngs_modulus: missing"),
-        ("mesh", 'study = "empty"\n[material]\nyoungs_modulus = "10 kPa"\npoisson_ratio = 0.45\n', "geometry.tool_radius: missing"),
+        ("fem", 'study = "empty"\n', "missing key 'material.youngs_modulus'"),
+        ("mesh", 'study = "empty"\n[material]\nyoungs_modulus = "10 kPa"\npoisson_ratio = 0.45\n', "missing key 'geometry.tool_radius'"),
         ("mfs", "", "missing key 'geometry.body_radius'"),
         ("atlas", "", "missing key 'geometry.body_radius'"),
-        ("sim", 'scene = "empty"\n', "material.youngs_modulus: missing"),
+        ("sim", 'scene = "empty"\n', "missing key 'material.youngs_modulus'"),
         ("study", '[problem]\nbenchmark = "B3"\n', "missing key 'problem.body_radius'")]:
     folder = scratch / f"empty_{command}"
     folder.mkdir()
@@ -106,15 +106,21 @@ BASES = {"mesh": FEM, "fem": FEM, "mfs": MFS, "study": STUDY, "atlas": ATLAS, "s
 EXTRA_ARGS = {"sim": ["--virtual", "--duration", "5"]}  # one palpation: 4.8 s
 
 # class → subcommand → (text replaced, replacement, text the error must contain).
-E = ('youngs_modulus = "10 kPa"', "youngs_modulus")
-NU = ("poisson_ratio = 0.45", "poisson_ratio")
+MATERIAL_READERS = ("mesh", "fem", "mfs", "study", "atlas", "sim")
+
+
+def in_every_material_reader(old, new, named):
+    return {command: (old, new, named) for command in MATERIAL_READERS}
+
+
+E, NU = 'youngs_modulus = "10 kPa"', "poisson_ratio = 0.45"
 CASES = {
-    "E = NaN": {s: (E[0], 'youngs_modulus = "nan kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
-    "E = Inf": {s: (E[0], 'youngs_modulus = "inf kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
-    "E < 0": {s: (E[0], 'youngs_modulus = "-10 kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
-    "E = 0": {s: (E[0], 'youngs_modulus = "0 kPa"', E[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
-    "ν = 0.5": {s: (NU[0], "poisson_ratio = 0.5", NU[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
-    "ν = NaN": {s: (NU[0], "poisson_ratio = nan", NU[1]) for s in ("mesh", "fem", "mfs", "study", "atlas", "sim")},
+    "E = NaN": in_every_material_reader(E, 'youngs_modulus = "nan kPa"', "youngs_modulus"),
+    "E = Inf": in_every_material_reader(E, 'youngs_modulus = "inf kPa"', "youngs_modulus"),
+    "E < 0": in_every_material_reader(E, 'youngs_modulus = "-10 kPa"', "youngs_modulus"),
+    "E = 0": in_every_material_reader(E, 'youngs_modulus = "0 kPa"', "youngs_modulus"),
+    "ν = 0.5": in_every_material_reader(NU, "poisson_ratio = 0.5", "poisson_ratio"),
+    "ν = NaN": in_every_material_reader(NU, "poisson_ratio = nan", "poisson_ratio"),
     "tool radius ≤ 0": {
         "mesh": ('tool_radius = "5 mm"', 'tool_radius = "-5 mm"', "tool_radius"),
         "fem": ('tool_radius = "5 mm"', 'tool_radius = "0 mm"', "tool_radius"),
@@ -156,7 +162,7 @@ CASES = {
         "collision": ("stomach_triangles = [500, 2500, 17000, 35000]   # J-shaped stomach, about 0.2 m\nhemisphere_triangles = [2500]",
                       "stomach_triangles = []\nhemisphere_triangles = []", "stomach_triangles and hemisphere_triangles are empty"),
     },
-    "rate, count or duration out of range": {
+    "rate or count out of range": {
         "sim": ("haptic_hz = 1000", "haptic_hz = 1e9", "haptic_hz"),
         "collision": ("stomach_triangles = [500, 2500, 17000, 35000]", "stomach_triangles = [-500]", "stomach_triangles"),
         "mfs": ("node_count = [34]", "node_count = [0]", "node_count"),

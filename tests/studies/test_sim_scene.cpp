@@ -171,7 +171,7 @@ TEST(SimScene, TheMaterialAndTheTipAreRequiredAndDefaultsAreReported) {
       read_sim_scene(directory.file("partial.toml", text));
       ADD_FAILURE() << "accepted without " << key;
     } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key + ": missing"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("missing key '" + key + "'"), std::string::npos) << e.what();
     }
   }
   const SimScene scene = read_sim_scene(directory.file("minimal.toml", with_required_keys("scene = \"minimal\"\n")));

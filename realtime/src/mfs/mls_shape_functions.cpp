@@ -44,7 +44,7 @@ struct WeightTerms {
 constexpr double gaussian_alpha = 0.4;
 const double gaussian_tail = std::exp(-1.0 / (gaussian_alpha * gaussian_alpha));
 
-[[gnu::always_inline]] inline WeightTerms weight_terms(Weight weight, double s) noexcept {
+WeightTerms weight_terms(Weight weight, double s) noexcept {
   if (!(s < 1.0)) {
     return {};
   }

@@ -221,7 +221,7 @@ ComparisonProblem read_problem(ConfigTable& problem) {
   const Eigen::Vector3d tilted = tilt == 0 ? inward : Eigen::Vector3d(std::cos(tilt) * inward + std::sin(tilt) * toward_base);
   const auto direction = problem.vector3("direction", Dimension::dimensionless, {{tilted[0], tilted[1], tilted[2]}});
   p.direction = Eigen::Vector3d(direction[0], direction[1], direction[2]);
-  if (!problem.has("depths")) throw ConfigError(problem.where("depths") + ": missing (required: the tool's depths)");
+  problem.require("depths");
   p.depths_m = problem.quantity_list("depths", Dimension::length, p.depths_m);
   return p;
 }

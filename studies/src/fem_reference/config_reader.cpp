@@ -118,6 +118,21 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return row[b.size()];
 }
 
+/// The candidate spelled closest to `key`, if close enough to be a misspelling of it ("" if
+/// none). Short keys get little slack, or every one-letter key would "mean" every other.
+std::string closest_spelling(const std::string& key, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = (key.size() <= 3 ? std::size_t{1} : std::max<std::size_t>(2, key.size() / 4)) + 1;
+  for (const std::string& candidate : candidates) {
+    const std::size_t distance = edit_distance(key, candidate);
+    if (distance < best_distance) {
+      best = candidate;
+      best_distance = distance;
+    }
+  }
+  return best;
+}
+
 }  // namespace
 
 double parse_quantity(const std::string& text, Dimension dimension, const std::string& where) {
@@ -197,16 +212,9 @@ struct ConfigTable::State {
 
   // A key the file has, spelled close to the missing `key`: " (is 'x' a misspelling of it?)".
   std::string misspelling_hint(const std::string& key) const {
-    std::string best;
-    std::size_t best_distance = (key.size() <= 3 ? std::size_t{1} : std::max<std::size_t>(2, key.size() / 4)) + 1;
-    for (const auto& [key_object, node] : *table) {
-      const std::string present(key_object.str());
-      const std::size_t distance = edit_distance(key, present);
-      if (distance > 0 && distance < best_distance) {
-        best = present;
-        best_distance = distance;
-      }
-    }
+    std::vector<std::string> present;
+    for (const auto& [key_object, node] : *table) present.emplace_back(key_object.str());
+    const std::string best = closest_spelling(key, present);
     return best.empty() ? "" : " (is '" + dotted(best) + "' a misspelling of it?)";
   }
 
@@ -230,19 +238,10 @@ struct ConfigTable::State {
 
   // A key the program asked for but the file lacks, spelled close to `key`: the likely intent.
   std::string closest_asked(const std::string& key) const {
-    std::string best;
-    // Short keys get little slack, or every one-letter key would "mean" every other.
-    std::size_t best_distance =
-        (key.size() <= 3 ? std::size_t{1} : std::max<std::size_t>(2, key.size() / 4)) + 1;
-    for (const std::string& candidate : asked) {
-      if (table->contains(candidate)) continue;
-      const std::size_t distance = edit_distance(key, candidate);
-      if (distance < best_distance) {
-        best = candidate;
-        best_distance = distance;
-      }
-    }
-    return best;
+    std::vector<std::string> absent;
+    for (const std::string& candidate : asked)
+      if (!table->contains(candidate)) absent.push_back(candidate);
+    return closest_spelling(key, absent);
   }
 };
 
@@ -578,9 +577,7 @@ std::string ConfigTable::where(const std::string& key) const { return state_->wh
 
 std::vector<std::string> ConfigTable::defaults_filled() const { return state_->defaults->filled; }
 
-void ConfigTable::require(const std::string& key, const std::string& why) const {
-  if (!has(key)) throw ConfigError(where(key) + ": missing (" + why + ")" + state_->misspelling_hint(key));
-}
+void ConfigTable::require(const std::string& key) { state_->require(key); }
 
 int checked_int(const std::string& where, std::int64_t value) {
   if (value < INT_MIN || value > INT_MAX)

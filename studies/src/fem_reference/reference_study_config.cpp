@@ -195,8 +195,7 @@ void require_problem_keys(ConfigTable& config, const ReferenceStudy& study) {
     keys.insert(keys.end(), {{"geometry", "tool_radius"}, {"tool", "depth"}});
     if (benchmark != meshes::Benchmark::Organ) keys.emplace_back("geometry", "body_radius");
   }
-  for (const auto& [section, key] : keys)
-    config.table(section).require(key, "required: it defines the problem, and no default would fit every study");
+  for (const auto& [section, key] : keys) config.table(section).require(key);
 }
 
 ReferenceStudy read_reference_study(ConfigTable& config, bool problem_imposed) {

@@ -194,15 +194,15 @@ SettingField<Settings> quantity_list(FieldNames n, Dimension dimension, Get get)
           [get](const Settings& s) { return nlohmann::json(get(s)); }};
 }
 
-/// The same field, but the file must set it (when `needed` says so for the settings read so
-/// far): a ConfigError naming the key instead of a default. For what defines the problem (the
-/// material, the tool's size and depth, the body's size), where a default would be a guess.
+/// The same field, but the file must set it: a ConfigError naming the key instead of a
+/// default. For what defines the problem (the material, the tool's size and depth, the body's
+/// size), where a default would be a guess.
 template <class Settings>
-SettingField<Settings> required(SettingField<Settings> f, std::function<bool(const Settings&)> needed = {}) {
+SettingField<Settings> required(SettingField<Settings> f) {
   const auto read = f.read;
   const std::string key = f.key;
-  f.read = [read, key, needed](ConfigTable& t, Settings& s) {
-    if (!needed || needed(s)) t.require(key, "required: it defines the problem, and no default would fit every study");
+  f.read = [read, key](ConfigTable& t, Settings& s) {
+    t.require(key);
     read(t, s);
   };
   f.doc += " (required)";

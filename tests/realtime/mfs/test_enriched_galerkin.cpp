@@ -332,7 +332,7 @@ TEST(LocalSurface, DepthAloneEqualsDepthWithDerivativesAndTheirDifferences) {
       EXPECT_NEAR(du, fd_u, 1e-7) << u << ", " << v;
       EXPECT_NEAR(dv, fd_v, 1e-7) << u << ", " << v;
       // The sphere's own depth below its tangent plane, R − √(R² − r²), to the fit of a
-      // triangulated sphere (its vertices are on the sphere, its facets inside: 0.5 µm here).
+      // triangulated sphere (its vertices are on the sphere, its facets inside it).
       EXPECT_NEAR(with_derivatives, radius - std::sqrt(radius * radius - u * u - v * v), 5e-5 * reach) << u << ", " << v;
     }
 }

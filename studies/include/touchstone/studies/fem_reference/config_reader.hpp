@@ -46,9 +46,9 @@ class ConfigTable {
   ~ConfigTable();
 
   bool has(const std::string& key) const;
-  /// Throws a ConfigError naming the key and `why` it is required when this table lacks it
-  /// (and a key of the file spelled close to it, if any).
-  void require(const std::string& key, const std::string& why) const;
+  /// Throws a ConfigError "missing key 'section.key'" when this table lacks it (with a key of
+  /// the file spelled close to it, if any): the error of every required accessor.
+  void require(const std::string& key);
   /// Sub-table (marked used). `required` false: an empty table when absent.
   ConfigTable table(const std::string& key, bool required = false);
 
