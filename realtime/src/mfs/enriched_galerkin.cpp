@@ -42,7 +42,12 @@ struct PolarDirections {
 
 /// Rays from the contact point, cut where they leave the organ or reach L; Gauss–Legendre in
 /// t with ρ = a (e^{κt} − 1) (graded toward the tool like the node cloud); the polar range per
-/// azimuth ends where a short step along the ray already leaves the organ. The shells within
+/// azimuth ends where a short step along the ray already leaves the organ. The reach of a ray,
+/// ρ_max(θ) = min(L, distance to the surface), has a kink at θ_cut, where the cut sphere meets
+/// the organ surface: Gauss–Legendre across it over-counted the volume of the hemisphere's local
+/// ball by 1.2 %. So the polar range is two Gauss rules, [0, θ_cut] (rays of length L) with three
+/// quarters of the polar points and [θ_cut, θ_max] (rays ending on the surface) with the rest;
+/// each integrand is then smooth and that volume right to 2e-4. The shells within
 /// volume_coarse_within_tool_radii of the contact point (on a ray of full length L) take half
 /// the angular counts: they hold little volume, and the shape functions are smooth across them.
 PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double tool_radius_m, double length,
@@ -57,14 +62,28 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
   PatchQuadrature q;
   // One angular product rule over the shells t ∈ [t_low, t_high).
   const auto add_shells = [&](int azimuth_points, int polar_points, double t_low, double t_high) {
-    std::vector<double> xt, wt;
-    gauss_legendre(polar_points, xt, wt);
+    const int rim_points = std::max(1, (polar_points + 2) / 4);
+    std::vector<double> x_whole, w_whole, x_full, w_full, x_rim, w_rim;
+    gauss_legendre(polar_points, x_whole, w_whole);
+    gauss_legendre(polar_points - rim_points, x_full, w_full);
+    gauss_legendre(rim_points, x_rim, w_rim);
+    std::vector<std::pair<double, double>> polar;  // θ and its weight
     for (int k = 0; k < azimuth_points; ++k) {
       const double phi = 2 * pi * (k + 0.5) / azimuth_points;
       const double theta_max = first_exit([&](double theta) { return inside(centre + probe * direction(theta, phi)); }, pi, 32);
       if (theta_max <= 0) continue;
-      for (int j = 0; j < polar_points; ++j) {
-        const double theta = theta_max * xt[j];
+      const double theta_cut =
+          first_exit([&](double theta) { return inside(centre + length * direction(theta, phi)); }, pi, 64);
+      polar.clear();
+      // A wedge beyond θ_cut thinner than a milliradian (a flat body: both are π/2) holds no volume.
+      if (theta_cut > 0 && theta_cut < theta_max - 1e-3) {
+        for (std::size_t j = 0; j < x_full.size(); ++j) polar.emplace_back(theta_cut * x_full[j], theta_cut * w_full[j]);
+        for (std::size_t j = 0; j < x_rim.size(); ++j)
+          polar.emplace_back(theta_cut + (theta_max - theta_cut) * x_rim[j], (theta_max - theta_cut) * w_rim[j]);
+      } else {
+        for (std::size_t j = 0; j < x_whole.size(); ++j) polar.emplace_back(theta_max * x_whole[j], theta_max * w_whole[j]);
+      }
+      for (const auto& [theta, theta_weight] : polar) {
         const Eigen::Vector3d d = direction(theta, phi);
         const double reach = first_exit([&](double rho) { return inside(centre + rho * d); }, length, 32);
         if (reach <= 0) continue;
@@ -76,7 +95,7 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
           const double jacobian = kappa * (rho + scale);
           q.points.push_back(centre + rho * d);
           q.normals.push_back(Eigen::Vector3d::Zero());
-          q.weights.push_back(rho * rho * jacobian * wr[i] * std::sin(theta) * theta_max * wt[j] * 2 * pi / azimuth_points);
+          q.weights.push_back(rho * rho * jacobian * wr[i] * std::sin(theta) * theta_weight * 2 * pi / azimuth_points);
         }
       }
     }
