@@ -73,7 +73,7 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
       const double theta_max = first_exit([&](double theta) { return inside(centre + probe * direction(theta, phi)); }, pi, 32);
       if (theta_max <= 0) continue;
       const double theta_cut =
-          first_exit([&](double theta) { return inside(centre + length * direction(theta, phi)); }, pi, 64);
+          first_exit([&](double theta) { return inside(centre + length * direction(theta, phi)); }, pi, 32);
       polar.clear();
       // A wedge beyond θ_cut thinner than a milliradian (a flat body: both are π/2) holds no volume.
       if (theta_cut > 0 && theta_cut < theta_max - 1e-3) {
