@@ -44,10 +44,11 @@ struct PolarDirections {
 /// t with ρ = a (e^{κt} − 1) (graded toward the tool like the node cloud); the polar range per
 /// azimuth ends where a short step along the ray already leaves the organ. The reach of a ray,
 /// ρ_max(θ) = min(L, distance to the surface), has a kink at θ_cut, where the cut sphere meets
-/// the organ surface: Gauss–Legendre across it over-counted the volume of the hemisphere's local
-/// ball by 1.2 %. So the polar range is two Gauss rules, [0, θ_cut] (rays of length L) with three
-/// quarters of the polar points and [θ_cut, θ_max] (rays ending on the surface) with the rest;
-/// each integrand is then smooth and that volume right to 2e-4. The shells within
+/// the organ surface, and Gauss–Legendre across a kink is only first-order accurate (it
+/// over-counted the local ball's volume: docs/enriched_model.md, "The kink in the rays' reach").
+/// So the polar range is two Gauss rules, [0, θ_cut] (rays of length L) with three quarters of
+/// the polar points and [θ_cut, θ_max] (rays ending on the surface) with the rest, each over a
+/// smooth integrand. The shells within
 /// volume_coarse_within_tool_radii of the contact point (on a ray of full length L) take half
 /// the angular counts: they hold little volume, and the shape functions are smooth across them.
 PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double tool_radius_m, double length,
