@@ -175,7 +175,9 @@ class ElasticitySolver {
         lambda_(problem.material.lame_lambda_Pa()),
         mu_(problem.material.shear_modulus_Pa()),
         kappa_(lambda_ + 2 * mu_ / 3),
-        mixed_(problem.solver.formulation == Formulation::mixed_p0disc) {}
+        mixed_(problem.solver.formulation == Formulation::mixed_p0disc) {
+    for (unsigned int i = 0; i < fe_.n_dofs_per_cell(); ++i) component_.push_back(fe_.system_to_component_index(i).first);
+  }
 
   ElasticitySolution run() {
     Timer timer(comm_);
@@ -341,20 +343,28 @@ class ElasticitySolver {
       mixed_cell_matrix(fe_values, matrix, pressure);
       return;
     }
-    const FEValuesExtractors::Vector u(0);
+    // Every shape function of the FESystem is primitive: φ_i = ψ_k e_a with a = component_[i].
+    // With g_i = ∇ψ_k, ε(φ_i):ε(φ_j) = ½ (δ_ab g_i·g_j + g_i[b] g_j[a]) and div φ_i = g_i[a], so
+    // K_ij = ∫ μ (δ_ab g_i·g_j + g_i[b] g_j[a]) + λ g_i[a] g_j[b]: the same integrand as
+    // 2μ ε:ε + λ div div, without forming a strain tensor per shape function.
     const unsigned int n = fe_.n_dofs_per_cell();
-    std::vector<SymmetricTensor<2, dim>> strain(n);
-    std::vector<double> divergence(n);
+    gradients_.resize(n);
     matrix = 0;
     for (const unsigned int q : fe_values.quadrature_point_indices()) {
-      for (unsigned int i = 0; i < n; ++i) {
-        strain[i] = fe_values[u].symmetric_gradient(i, q);
-        divergence[i] = trace(strain[i]);
-      }
+      for (unsigned int i = 0; i < n; ++i) gradients_[i] = fe_values.shape_grad(i, q);
       const double jxw = fe_values.JxW(q);
-      for (unsigned int i = 0; i < n; ++i)
-        for (unsigned int j = i; j < n; ++j)
-          matrix(i, j) += (2 * mu_ * (strain[i] * strain[j]) + lambda_ * divergence[i] * divergence[j]) * jxw;
+      const double mu = mu_ * jxw, lambda = lambda_ * jxw;
+      for (unsigned int i = 0; i < n; ++i) {
+        const unsigned int a = component_[i];
+        const Tensor<1, dim>& gi = gradients_[i];
+        for (unsigned int j = i; j < n; ++j) {
+          const unsigned int b = component_[j];
+          const Tensor<1, dim>& gj = gradients_[j];
+          double v = mu * gi[b] * gj[a] + lambda * gi[a] * gj[b];
+          if (a == b) v += mu * (gi * gj);
+          matrix(i, j) += v;
+        }
+      }
     }
     for (unsigned int i = 0; i < n; ++i)
       for (unsigned int j = 0; j < i; ++j) matrix(i, j) = matrix(j, i);
@@ -626,6 +636,8 @@ class ElasticitySolver {
   double kappa_;                 ///< bulk modulus κ = λ + 2μ/3 [Pa]
   bool mixed_;                   ///< Formulation::mixed_p0disc
   std::vector<double> cell_pressures_;  ///< p = κ Π₀(div u) [Pa] of the locally owned cells
+  std::vector<unsigned int> component_;  ///< the vector component of each cell shape function
+  mutable std::vector<Tensor<1, dim>> gradients_;  ///< cell_matrix's scratch: ∇ψ of each shape function [1/m]
   std::map<std::string, int> surface_tags_;  ///< surface group name → physical tag (boundary id)
 
   IndexSet locally_owned_, locally_relevant_;
