@@ -37,6 +37,18 @@ foreach(source IN LISTS fem_sources)
 endforeach()
 string(SHA256 fem_source_hash "${fem_digest}")
 string(SUBSTRING ${fem_source_hash} 0 16 fem_source_hash)
+# The mesh cache's key: the sources that decide a mesh (the meshes and the geometry core), so
+# that an FEM-only change re-solves on the meshes already made.
+set(mesh_digest "")
+foreach(source IN LISTS fem_sources)
+  file(RELATIVE_PATH relative ${SOURCE_DIR} ${source})
+  if(EXISTS ${source} AND relative MATCHES "^(meshes|geometry)/")
+    file(SHA256 ${source} digest)
+    string(APPEND mesh_digest "${relative} ${digest}\n")
+  endif()
+endforeach()
+string(SHA256 mesh_source_hash "${mesh_digest}")
+string(SUBSTRING ${mesh_source_hash} 0 16 mesh_source_hash)
 # The organ atlas's cache key: the FEM sources plus the atlas module and the punch fields that
 # make its Dirichlet traces (kept apart so that atlas edits keep the FEM references' cache).
 set(atlas_digest "${fem_digest}")
@@ -57,6 +69,8 @@ namespace touchstone::version {
 inline constexpr const char* git_hash = \"${git_hash}\";
 /// SHA-256 (16 hex digits) of the sources that decide an FEM reference solution: the cache key.
 inline constexpr const char* fem_source_hash = \"${fem_source_hash}\";
+/// SHA-256 (16 hex digits) of the sources that decide a mesh: the mesh cache's key.
+inline constexpr const char* mesh_source_hash = \"${mesh_source_hash}\";
 /// The same over the FEM sources, the organ atlas module and the punch fields: the atlas's cache key.
 inline constexpr const char* atlas_source_hash = \"${atlas_source_hash}\";
 inline constexpr const char* build_type = \"${BUILD_TYPE}\";

@@ -873,6 +873,8 @@ void MeshParameters::validate() const {
   }
 }
 
+std::string mesher_version() { return std::string("gmsh ") + GMSH_API_VERSION; }
+
 MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& msh_path) {
   parameters.validate();
   if (parameters.benchmark == Benchmark::Organ) return generate_organ_body_mesh(parameters, msh_path);

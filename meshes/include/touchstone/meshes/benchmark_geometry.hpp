@@ -108,6 +108,10 @@ ContactSite contact_site(const MeshParameters& parameters);
 /// Throws std::runtime_error with the parameters named when gmsh fails.
 MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& msh_path);
 
+/// The mesher's name and version ("gmsh 4.11.1"): part of any key under which meshes are kept,
+/// since another gmsh may mesh the same parameters differently.
+std::string mesher_version();
+
 /// Writes the same geometry as a .geo_unrolled script (opens in the gmsh GUI) for inspection.
 void write_geometry_script(const MeshParameters& parameters, const std::string& geo_path);
 
