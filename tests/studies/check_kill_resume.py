@@ -114,12 +114,12 @@ check(result.returncode == 0, f"the run after the kills failed: {result.stderr}"
 check(numbers(killed) == expected, "the run after the kills differs from the uninterrupted run")
 check(unreadable_files(killed) == [], f"after the resumed run: {unreadable_files(killed)}")
 
-# A full disk: every file is limited to 64 KiB, so the FEM cache's mesh cannot be written.
+# A full disk: every file is limited to 64 KiB, so the mesh cache's first mesh cannot be written.
 full = scratch / "full_disk"
 result = run(full, limit_bytes=64 * 1024)
 print(f"full disk: exit {result.returncode}: {result.stderr.strip()[-300:]}")
 check(result.returncode == 1, f"a full disk gave exit status {result.returncode}, not 1")
-check("cannot write '.cache/touchstone/fem/" in result.stderr and "mesh.msh" in result.stderr,
+check("cannot write '.cache/touchstone/meshes/" in result.stderr and ".msh'" in result.stderr,
       f"the full-disk error does not name the file it could not write: {result.stderr.strip()[-300:]}")
 check(not list(full.rglob("*.partial*")), f"partial files left behind: {list(full.rglob('*.partial*'))}")
 check(unreadable_files(full) == [], f"after the full disk: {unreadable_files(full)}")
