@@ -174,6 +174,14 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
   // lower triangle of the moment matrix in the physical frame centred at x.
   const std::size_t node_count = std::min(positions.size(), radii.size());
   const std::size_t candidate_count = candidates.empty() ? positions.size() : candidates.size();
+  // The buffers are sized for every candidate once and cut to the neighbours found at the end:
+  // growing them one neighbour at a time cost more than the moment sums.
+  result.neighbours.resize(candidate_count);
+  result.value.resize(candidate_count);
+  if (want_gradients) result.gradient.resize(candidate_count);
+  if (want_hessians) result.hessian.resize(candidate_count);
+  result.basis_scratch.resize(candidate_count * M);
+  std::size_t found = 0;
   Mat moments = Mat::Zero();
   double rho = 0.0;
   for (std::size_t c = 0; c < candidate_count; ++c) {
@@ -193,33 +201,36 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
     if (!(wt.w > 0.0)) {
       continue;
     }
-    result.neighbours.push_back(j);
-    result.value.push_back(wt.w);
+    result.neighbours[found] = j;
+    result.value[found] = wt.w;
     const double inv_r2 = 1.0 / (r * r);
     if (want_gradients) {
       // W,i = W'(s) (x_i − x_Ji) / (d r) = −(W'/s) Δ_i / r², Δ = x_J − x.
-      result.gradient.push_back(-wt.dw_over_s * inv_r2 * delta);
+      result.gradient[found] = -wt.dw_over_s * inv_r2 * delta;
     }
     if (want_hessians) {
       // W,ij = (W'' − W'/s) n_i n_j / r² + (W'/s) δ_ij / r²; the first factor vanishes at d = 0.
       const Eigen::Vector3d n = d > 0.0 ? Eigen::Vector3d(delta / d) : Eigen::Vector3d::Zero();
       const double radial = (wt.d2w - wt.dw_over_s) * inv_r2;
-      Eigen::Matrix3d hw;
+      Eigen::Matrix3d& hw = result.hessian[found];
       for (int b = 0; b < 3; ++b) {
         for (int a = 0; a < 3; ++a) {
           hw(a, b) = radial * n(a) * n(b);
         }
         hw(b, b) += wt.dw_over_s * inv_r2;
       }
-      result.hessian.push_back(hw);
     }
     const Vec<M> p = basis_at<M>(delta);
-    const std::size_t row = result.basis_scratch.size();
-    result.basis_scratch.resize(row + M);
-    Eigen::Map<Vec<M>>(result.basis_scratch.data() + row) = p;
+    Eigen::Map<Vec<M>>(result.basis_scratch.data() + found * M) = p;
     accumulate_lower<M, 0>(moments, p, wt.w);
     rho = std::max(rho, r);
+    ++found;
   }
+  result.neighbours.resize(found);
+  result.value.resize(found);
+  if (want_gradients) result.gradient.resize(found);
+  if (want_hessians) result.hessian.resize(found);
+  result.basis_scratch.resize(found * M);
 
   const std::size_t n = result.neighbours.size();
   if (n < static_cast<std::size_t>(M)) {
