@@ -122,70 +122,73 @@ std::vector<fs::path> cached_meshes(const std::string& cache_directory) {
   return found;
 }
 
+// The mesh cache's scenario: the tiny study at ν = 0.45 run into a fresh cache (`first`), then
+// the same geometry at ν = 0.3 to run on it (`second_study`), and that study run afresh without
+// a cache (`fresh`) to compare with.
+struct MeshCacheScenario {
+  RunOptions options;
+  nlohmann::json first, fresh;
+  ReferenceStudy second_study;
+  std::string second_text;
+};
+
+MeshCacheScenario first_run_into_a_fresh_cache(const std::string& name) {
+  MeshCacheScenario scenario;
+  RunOptions& options = scenario.options;
+  options.output_directory = name + "_out";
+  options.cache_directory = name + "_cache";
+  options.quiet = true;
+  fs::remove_all(options.cache_directory);
+  std::string first_text;
+  const ReferenceStudy first_study = tiny_study_at_poisson_ratio("0.45", first_text);
+  scenario.second_study = tiny_study_at_poisson_ratio("0.3", scenario.second_text);
+  options.config_text = first_text;
+  scenario.first = run_reference_study(first_study, options);
+  RunOptions fresh_options = options;
+  fresh_options.output_directory = name + "_fresh";
+  fresh_options.cache_directory = "";
+  fresh_options.config_text = scenario.second_text;
+  scenario.fresh = run_reference_study(scenario.second_study, fresh_options);
+  options.config_text = scenario.second_text;
+  return scenario;
+}
+
 // Levels that differ only in material share the mesh of the first: the second study meshes
 // nothing, its solves equal those of a run that meshed afresh, and its level times still count
 // gmsh's time (a level's cost must not depend on the cache).
 TEST(ReferenceStudy, LevelsThatDifferOnlyInMaterialShareOneMesh) {
-  RunOptions options;
-  options.output_directory = "reference_study_mesh_cache_out";
-  options.cache_directory = "reference_study_mesh_cache";
-  options.quiet = true;
-  fs::remove_all(options.cache_directory);
-  std::string first_text, second_text;
-  const ReferenceStudy first_study = tiny_study_at_poisson_ratio("0.45", first_text);
-  const ReferenceStudy second_study = tiny_study_at_poisson_ratio("0.3", second_text);
-  options.config_text = first_text;
-  const nlohmann::json first = run_reference_study(first_study, options);
-  ASSERT_EQ(cached_meshes(options.cache_directory).size(), 2u);
-  options.config_text = second_text;
-  const nlohmann::json second = run_reference_study(second_study, options);
-  EXPECT_EQ(cached_meshes(options.cache_directory).size(), 2u);
-
-  RunOptions fresh_options = options;
-  fresh_options.output_directory = "reference_study_mesh_cache_fresh";
-  fresh_options.cache_directory = "";
-  const nlohmann::json fresh = run_reference_study(second_study, fresh_options);
+  const MeshCacheScenario scenario = first_run_into_a_fresh_cache("reference_study_mesh_cache");
+  ASSERT_EQ(cached_meshes(scenario.options.cache_directory).size(), 2u);
+  const nlohmann::json second = run_reference_study(scenario.second_study, scenario.options);
+  EXPECT_EQ(cached_meshes(scenario.options.cache_directory).size(), 2u);
   for (int level = 0; level < 2; ++level) {
-    const nlohmann::json& made = first.at("cases")[level];
+    const nlohmann::json& made = scenario.first.at("cases")[level];
     const nlohmann::json& reused = second.at("cases")[level];
+    const nlohmann::json& fresh = scenario.fresh.at("cases")[level];
     EXPECT_FALSE(made.at("time_s").at("mesh_reused").get<bool>());
     EXPECT_TRUE(reused.at("time_s").at("mesh_reused").get<bool>());
     EXPECT_FALSE(reused.at("cached").get<bool>());  // solved, on the kept mesh
     EXPECT_EQ(reused.at("time_s").at("mesh"), made.at("time_s").at("mesh"));
     EXPECT_GT(reused.at("time_s").at("total").get<double>(), reused.at("time_s").at("mesh").get<double>());
-    EXPECT_EQ(reused.at("mesh").at("vertices"), fresh.at("cases")[level].at("mesh").at("vertices"));
-    EXPECT_EQ(reused.at("mesh").at("tetrahedra"), fresh.at("cases")[level].at("mesh").at("tetrahedra"));
-    EXPECT_EQ(reused.at("qoi"), fresh.at("cases")[level].at("qoi"));
+    EXPECT_EQ(reused.at("mesh").at("vertices"), fresh.at("mesh").at("vertices"));
+    EXPECT_EQ(reused.at("mesh").at("tetrahedra"), fresh.at("mesh").at("tetrahedra"));
+    EXPECT_EQ(reused.at("qoi"), fresh.at("qoi"));
   }
 }
 
 // A mesh cache entry left damaged (a truncated mesh, a lost record) is made again, not used.
 TEST(ReferenceStudy, ADamagedMeshCacheEntryIsMadeAgain) {
-  RunOptions options;
-  options.output_directory = "reference_study_damaged_mesh_out";
-  options.cache_directory = "reference_study_damaged_mesh_cache";
-  options.quiet = true;
-  fs::remove_all(options.cache_directory);
-  std::string first_text, second_text;
-  const ReferenceStudy first_study = tiny_study_at_poisson_ratio("0.45", first_text);
-  const ReferenceStudy second_study = tiny_study_at_poisson_ratio("0.3", second_text);
-  options.config_text = first_text;
-  const nlohmann::json first = run_reference_study(first_study, options);
-  const std::vector<fs::path> entries = cached_meshes(options.cache_directory);
+  const MeshCacheScenario scenario = first_run_into_a_fresh_cache("reference_study_damaged_mesh");
+  const std::vector<fs::path> entries = cached_meshes(scenario.options.cache_directory);
   ASSERT_EQ(entries.size(), 2u);
   const std::uintmax_t bytes = fs::file_size(entries[0] / "mesh.msh");
   fs::resize_file(entries[0] / "mesh.msh", bytes / 2);
   fs::remove(entries[1] / "mesh.json");
 
-  options.config_text = second_text;
-  const nlohmann::json second = run_reference_study(second_study, options);
-  RunOptions fresh_options = options;
-  fresh_options.output_directory = "reference_study_damaged_mesh_fresh";
-  fresh_options.cache_directory = "";
-  const nlohmann::json fresh = run_reference_study(second_study, fresh_options);
+  const nlohmann::json second = run_reference_study(scenario.second_study, scenario.options);
   for (int level = 0; level < 2; ++level) {
     EXPECT_FALSE(second.at("cases")[level].at("time_s").at("mesh_reused").get<bool>()) << level;
-    EXPECT_EQ(second.at("cases")[level].at("qoi"), fresh.at("cases")[level].at("qoi")) << level;
+    EXPECT_EQ(second.at("cases")[level].at("qoi"), scenario.fresh.at("cases")[level].at("qoi")) << level;
   }
   EXPECT_EQ(fs::file_size(entries[0] / "mesh.msh"), bytes);
   EXPECT_TRUE(fs::exists(entries[1] / "mesh.json"));
