@@ -189,8 +189,7 @@ class Runner {
         if (fs::file_size(cached_mesh) == record.at("bytes").get<std::uintmax_t>()) {
           link_or_copy(cached_mesh, msh_path);
           out.summary = {msh_path, record.at("vertices").get<std::size_t>(), record.at("tetrahedra").get<std::size_t>(),
-                         record.at("patch_triangles").get<std::size_t>(),
-                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+                         record.at("patch_triangles").get<std::size_t>(), seconds_since(start)};
           out.reused = true;
           out.generation_s = record.at("generation_s").get<double>();
           return out;

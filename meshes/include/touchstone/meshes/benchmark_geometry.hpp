@@ -108,7 +108,7 @@ ContactSite contact_site(const MeshParameters& parameters);
 /// Throws std::runtime_error with the parameters named when gmsh fails.
 MeshSummary generate_mesh(const MeshParameters& parameters, const std::string& msh_path);
 
-/// The mesher's name and version ("gmsh 4.11.1"): part of any key under which meshes are kept,
+/// The mesher's name and version (e.g. "gmsh 4.8.0"): part of any key under which meshes are kept,
 /// since another gmsh may mesh the same parameters differently.
 std::string mesher_version();
 
