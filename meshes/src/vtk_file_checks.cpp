@@ -256,6 +256,13 @@ class CompressedBlockCounts {
       check(content, stop, true, "an inline compressed DataArray of piece " + std::to_string(piece));
     } else if (unsigned long long offset = 0; xml_count_attribute(tag, "offset", offset)) {
       appended_.push_back({offset, piece});
+    } else if (tag.find("\"appended\"") != std::string::npos || tag.find("'appended'") != std::string::npos) {
+      // VTK reads an offset that is not a number as 0, and the header there is another array's.
+      const std::size_t at = tag.find(" offset=");
+      const std::string given = at == std::string::npos ? "" : tag.substr(at + 9, tag.find_first_of("\"'", at + 9) - at - 9);
+      fail(path_, "corrupt file: an appended compressed DataArray of piece " + std::to_string(piece) +
+                      (at == std::string::npos ? " has no offset" : " has offset '" + given + "'") +
+                      ", not a byte offset into the appended data");
     }
   }
 

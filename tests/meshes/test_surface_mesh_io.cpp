@@ -728,6 +728,12 @@ TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
                             "/tests/fuzz/corpus/fuzz_surface_vtp/corrupt_zero_blocks_with_last_block.vtp";
   expect_invalid_argument([&] { read_surface_mesh(found); },
                           {"corrupt_zero_blocks_with_last_block.vtp", "no compressed blocks but a last block of 301568 bytes"});
+  // Another: an appended array whose offset is "P", not a number. VTK reads the data at offset 0,
+  // whose header claims a block of 4,294,967,280 bytes, and allocates it.
+  const std::string no_offset = std::string(TOUCHSTONE_SOURCE_DIR) +
+                                "/tests/fuzz/corpus/fuzz_surface_vtp/corrupt_offset_not_a_number.vtp";
+  expect_invalid_argument([&] { read_surface_mesh(no_offset); },
+                          {"corrupt_offset_not_a_number.vtp", "appended compressed DataArray of piece 1", "offset 'P'"});
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
