@@ -20,7 +20,7 @@ if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 fi
 cmake --preset fuzz "${launcher[@]}" >/dev/null
-cmake --build --preset fuzz -j "${TOUCHSTONE_FUZZ_BUILD_JOBS:-$(nproc)}"
+./scripts/build.sh --preset fuzz -j "${TOUCHSTONE_FUZZ_BUILD_JOBS:-$(nproc)}"
 
 build=build/fuzz
 harnesses=("$@")

@@ -13,7 +13,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake --preset asan -DTOUCHSTONE_WARNINGS_AS_ERRORS="${TOUCHSTONE_WARNINGS_AS_ERRORS:-OFF}" >/dev/null
-cmake --build --preset asan --target sanitized_tests -j "$(nproc)"
+./scripts/build.sh --preset asan --target sanitized_tests -j "$(nproc)"
 export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 # Leaks inside gmsh, VTK and OpenIGTLink, which the project does not build:

@@ -13,16 +13,18 @@ phase_done() {
 }
 ./scripts/install_deps.sh
 phase_done "installing packages"
+# The three builds need a few GB; a full disk otherwise shows only as a failed link.
+echo "run_tests: free disk space: $(df -h --output=avail . | tail -1 | tr -d ' ')"
 # CI sets TOUCHSTONE_WARNINGS_AS_ERRORS=ON: a new compiler warning fails the run.
 cmake --preset release -DTOUCHSTONE_WARNINGS_AS_ERRORS="${TOUCHSTONE_WARNINGS_AS_ERRORS:-OFF}" >/dev/null
-cmake --build --preset release -j "$(nproc)"
+./scripts/build.sh --preset release -j "$(nproc)"
 phase_done "the release build"
 ctest --preset release -j "$(nproc)" "$@"
 phase_done "the default tests"
 # The threaded tests again under ThreadSanitizer (the threaded runtime must run clean): only
 # their targets.
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan --target threaded_tests -j "$(nproc)"
+./scripts/build.sh --preset tsan --target threaded_tests -j "$(nproc)"
 ctest --preset tsan-threaded -j "$(nproc)"
 phase_done "the ThreadSanitizer build and tests"
 # Every parser's libFuzzer harness briefly, from its committed corpus (scripts/fuzz.sh runs
