@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -192,6 +194,55 @@ TEST(ReferenceStudy, ADamagedMeshCacheEntryIsMadeAgain) {
   }
   EXPECT_EQ(fs::file_size(entries[0] / "mesh.msh"), bytes);
   EXPECT_TRUE(fs::exists(entries[1] / "mesh.json"));
+}
+
+// A level record left damaged in the FEM cache is solved again, with a warning, not used and
+// not the end of the run: a truncated record, one with a null force (what a NaN becomes in
+// JSON), and one whose parameters are another problem's.
+TEST(ReferenceStudy, ADamagedLevelRecordIsSolvedAgain) {
+  RunOptions options;
+  options.output_directory = "reference_study_damaged_record_out";
+  options.cache_directory = "reference_study_damaged_record_cache";
+  options.quiet = true;
+  fs::remove_all(options.cache_directory);
+  std::string text;
+  const ReferenceStudy study = tiny_study_at_poisson_ratio("0.45", text);
+  options.config_text = text;
+  const nlohmann::json first = run_reference_study(study, options);
+
+  std::vector<fs::path> records;
+  for (const auto& entry : fs::directory_iterator(options.cache_directory + "/fem")) {
+    records.push_back(entry.path() / "case.json");
+  }
+  ASSERT_EQ(records.size(), 2u);
+  const auto record_text = [](const fs::path& path) {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const auto write = [](const fs::path& path, const std::string& contents) { std::ofstream(path) << contents; };
+  const std::string whole = record_text(records[0]);
+  write(records[0], whole.substr(0, whole.size() / 2));
+  nlohmann::json null_force = nlohmann::json::parse(record_text(records[1]));
+  null_force["qoi"]["axial_force_N"] = nullptr;
+  write(records[1], null_force.dump(2));
+
+  const nlohmann::json second = run_reference_study(study, options);
+  for (int level = 0; level < 2; ++level) {
+    EXPECT_FALSE(second.at("cases")[level].at("cached").get<bool>()) << level;
+    EXPECT_EQ(second.at("cases")[level].at("qoi"), first.at("cases")[level].at("qoi")) << level;
+  }
+
+  // Another problem's record under this level's key (a hash collision, a copied file).
+  nlohmann::json other = nlohmann::json::parse(record_text(records[0]));
+  other["params"]["poisson_ratio"] = 0.3;
+  write(records[0], other.dump(2));
+  const nlohmann::json third = run_reference_study(study, options);
+  int solved_again = 0;
+  for (int level = 0; level < 2; ++level) {
+    solved_again += third.at("cases")[level].at("cached").get<bool>() ? 0 : 1;
+    EXPECT_EQ(third.at("cases")[level].at("qoi"), first.at("cases")[level].at("qoi")) << level;
+  }
+  EXPECT_EQ(solved_again, 1);
 }
 
 TEST(ReferenceStudy, UnknownKeyIsNamed) {

@@ -30,6 +30,37 @@ using nlohmann::json;
 
 namespace {
 
+/// What makes a cached level record unusable, or "" when it is whole: the level's own parameters
+/// (a different problem under a colliding key is not reused), status "ok", and a finite number
+/// at every value the reports read.
+std::string level_record_defect(const json& level, const json& params) {
+  if (!level.is_object()) return "not a JSON object";
+  if (level.value("status", "") != "ok") return "its status is not \"ok\"";
+  if (!level.contains("params") || level.at("params") != params) return "its parameters are not this level's";
+  const auto finite = [](const json& v) { return v.is_number() && std::isfinite(v.get<double>()); };
+  const auto finite_vector = [&](const json& v) {
+    return v.is_array() && v.size() == 3 && std::all_of(v.begin(), v.end(), finite);
+  };
+  for (const char* pointer : {"/qoi/axial_force_N", "/qoi/stiffness_N_per_m", "/qoi/energy_J", "/qoi/energy_force_N",
+                              "/qoi/k_star", "/mesh/vertices", "/mesh/tetrahedra", "/mesh/fe_nodes", "/mesh/dofs",
+                              "/time_s/mesh", "/time_s/read_mesh", "/time_s/setup", "/time_s/assembly",
+                              "/time_s/solve", "/time_s/postprocess", "/time_s/build", "/time_s/total"}) {
+    const json::json_pointer at(pointer);
+    if (!level.contains(at) || !finite(level.at(at))) return std::string(pointer).substr(1) + " is not a finite number";
+  }
+  if (!level.contains("/qoi/force_N"_json_pointer) || !finite_vector(level.at("/qoi/force_N"_json_pointer)))
+    return "qoi/force_N is not three finite numbers";
+  if (!level.contains("/mesh/mesh_file"_json_pointer) || !level.at("/mesh/mesh_file"_json_pointer).is_string())
+    return "mesh/mesh_file is not a path";
+  const json probes = level.at("/qoi"_json_pointer).value("probes", json());
+  if (!probes.is_array()) return "qoi/probes is not a list";
+  for (const json& probe : probes)
+    if (!probe.is_object() || !probe.value("found", json()).is_boolean() ||
+        !finite_vector(probe.value("displacement_m", json())))
+      return "a probe of qoi/probes has no finite displacement_m or no found flag";
+  return "";
+}
+
 /// Asymptotic convergence order of the punch force: 1, set by the r^(1/2) edge singularity
 /// (first order in the edge mesh size). Richardson reports how far the observed order is from it.
 constexpr double punch_convergence_order = 1.0;
@@ -238,11 +269,14 @@ class Runner {
 
     fem::MpiSession::barrier();
     if (!options_.cache_directory.empty() && fs::exists(cached_json)) {
-      json level = json::parse(read_file(cached_json));
-      level["id"] = id;
-      level["cached"] = true;
-      copy_vtu(level, id);
-      return level;
+      // Every rank reads the same file, so every rank takes the same branch.
+      json level = read_cached_level(cached_json, params);
+      if (!level.is_null()) {
+        level["id"] = id;
+        level["cached"] = true;
+        copy_vtu(level, id);
+        return level;
+      }
     }
 
     LevelMesh level_mesh;
@@ -322,6 +356,24 @@ class Runner {
     level = json::parse(read_file(cached_json));
     copy_vtu(level, id);
     return level;
+  }
+
+  /// A cached level's record, or null when the entry is damaged (a hand edit, a disk error, a
+  /// file from another version): the level is then solved again over it, with a warning that
+  /// names the file and what is wrong, instead of a bare JSON error ending the run.
+  json read_cached_level(const std::string& path, const json& params) const {
+    std::string defect;
+    try {
+      json level = json::parse(read_file(path));
+      defect = level_record_defect(level, params);
+      if (defect.empty()) return level;
+    } catch (const std::exception& e) {
+      defect = e.what();
+    }
+    if (rank0_)
+      std::fprintf(stderr, "warning: %s: damaged FEM cache entry (%s); solving the level again\n", path.c_str(),
+                   defect.c_str());
+    return nullptr;
   }
 
   /// The VTU of a level lives in its cache entry; the output folder gets its own copy so that
