@@ -54,6 +54,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -684,12 +685,13 @@ void check_petsc(PetscErrorCode code, const char* what) {
 }
 
 /// MUMPS' sparse LDLᵀ through PETSc's Cholesky factor interface, told that the matrix is
-/// positive definite (no pivoting) and ordered by approximate minimum degree. At the sizes a
-/// direct solve is chosen for (the paper's Table 2 mesh, the tests' meshes) the analysis phase
-/// costs as much as the factorisation, and AMD's cheap analysis outweighs its larger factor
-/// against nested dissection (PORD) and MUMPS' own choice (AMF): the README's Table 2 section
-/// has the phase times. A failed analysis or factorisation (MUMPS' INFOG(1) < 0) is an error
-/// naming MUMPS' codes, not a solution of NaNs.
+/// positive definite (the constrained rows keep a positive diagonal), so that it factorises
+/// without pivoting, and ordered by approximate minimum degree: at the sizes a direct solve is
+/// chosen for (the paper's Table 2 mesh, the tests' meshes) AMD's factor needs fewer operations
+/// than that of MUMPS' own choice (AMF) for the same cheap analysis, and nested dissection (PORD)
+/// spends on its analysis what its smaller factor saves (the README's Table 2 section has the
+/// phase times). A failed analysis or factorisation (MUMPS' INFOG(1) < 0) is an error naming
+/// MUMPS' codes, not a solution of NaNs.
 template <>
 void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   constexpr PetscInt mumps_ordering = 7, approximate_minimum_degree = 0;
@@ -698,8 +700,8 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   PC pc;
   Mat factor;
   check_petsc(KSPCreate(comm_, &ksp), "KSPCreate");
-  // Symmetric positive definite (the constrained rows keep a positive diagonal): MUMPS then
-  // factorises without pivoting.
+  // Destroyed on every way out, a thrown PETSc error included.
+  const std::unique_ptr<KSP, void (*)(KSP*)> destroy_ksp(&ksp, [](KSP* k) { KSPDestroy(k); });
   check_petsc(MatSetOption(A, MAT_SPD, PETSC_TRUE), "MatSetOption");
   check_petsc(KSPSetOperators(ksp, A, A), "KSPSetOperators");
   check_petsc(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
@@ -716,7 +718,6 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   PetscInt infog1 = 0, infog2 = 0;
   MatMumpsGetInfog(factor, 1, &infog1);
   MatMumpsGetInfog(factor, 2, &infog2);
-  KSPDestroy(&ksp);
   if (reason < 0 || infog1 < 0)
     throw std::runtime_error("MUMPS LDLT failed on the " + std::to_string(dof_handler_.n_dofs()) +
                              "-dof system of " + problem_.mesh_path + ": INFOG(1) = " + std::to_string(infog1) + ", INFOG(2) = " +
