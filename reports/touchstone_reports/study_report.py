@@ -318,9 +318,10 @@ def table2_section(w, s):
         fe_case = next((c for c in s.cases if c["id"] == fe["case"]), {})
         processes = get(fe_case, "solver", "mpi_processes")
         w("Ours FE: %s nodes are P2 support points (%s mesh vertices, %s dofs), full hemisphere B2; model = read + "
-          "setup + assembly, solution = CG/AMG solve, on %s MPI process%s; meshing took a further %s (end to end %s). "
+          "setup + assembly, solution = %s, on %s MPI process%s; meshing took a further %s (end to end %s). "
           "Its force error is against `%s` = %s mN." % (
-              fe["nodes"], fe["mesh_vertices"], fe["dofs"], processes, "" if processes == 1 else "es",
+              fe["nodes"], fe["mesh_vertices"], fe["dofs"], get(fe_case, "solver", "name") or "the linear solve",
+              processes, "" if processes == 1 else "es",
               seconds(fe["mesh_s"]), seconds(fe["end_to_end_s"]), fe["reference"], mn(fe["reference_force_N"])))
     if s.problem["benchmark"] == "B3":
         against = "the FEM on the identical local domain (B3)"
