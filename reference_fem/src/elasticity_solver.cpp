@@ -54,9 +54,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -719,8 +719,8 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   MatMumpsGetInfog(factor, 1, &infog1);
   MatMumpsGetInfog(factor, 2, &infog2);
   if (reason < 0 || infog1 < 0)
-    throw std::runtime_error("MUMPS LDLT failed on the " + std::to_string(dof_handler_.n_dofs()) +
-                             "-dof system of " + problem_.mesh_path + ": INFOG(1) = " + std::to_string(infog1) + ", INFOG(2) = " +
+    throw std::runtime_error("MUMPS LDLT failed on the " + std::to_string(dof_handler_.n_dofs()) + "-dof system of " +
+                             problem_.mesh_path + ": INFOG(1) = " + std::to_string(infog1) + ", INFOG(2) = " +
                              std::to_string(infog2) + ", PETSc reason " + std::to_string(reason) +
                              " (the MUMPS user guide lists the codes)");
   constraints_.distribute(solution_);
