@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
@@ -49,6 +50,17 @@ Eigen::Matrix3d matrix_from_json(const json& j) {
 }
 
 double value_or_nan(const json& j) { return j.is_number() ? j.get<double>() : nan_value; }
+
+bool is_finite_number(const json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
+
+bool is_finite_vector(const json& j, std::size_t n) {
+  return j.is_array() && j.size() == n && std::all_of(j.begin(), j.end(), [](const json& v) { return is_finite_number(v); });
+}
+
+bool is_finite_matrix(const json& j, std::size_t n) {
+  return j.is_array() && j.size() == n &&
+         std::all_of(j.begin(), j.end(), [n](const json& row) { return is_finite_vector(row, n); });
+}
 
 double value_or_nan(const json& object, const char* key) {
   return object.is_object() && object.contains(key) ? value_or_nan(object.at(key)) : nan_value;

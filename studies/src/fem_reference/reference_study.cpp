@@ -37,18 +37,14 @@ std::string level_record_defect(const json& level, const json& params) {
   if (!level.is_object()) return "not a JSON object";
   if (level.value("status", "") != "ok") return "its status is not \"ok\"";
   if (!level.contains("params") || level.at("params") != params) return "its parameters are not this level's";
-  const auto finite = [](const json& v) { return v.is_number() && std::isfinite(v.get<double>()); };
-  const auto finite_vector = [&](const json& v) {
-    return v.is_array() && v.size() == 3 && std::all_of(v.begin(), v.end(), finite);
-  };
   for (const char* pointer : {"/qoi/axial_force_N", "/qoi/stiffness_N_per_m", "/qoi/energy_J", "/qoi/energy_force_N",
                               "/qoi/k_star", "/mesh/vertices", "/mesh/tetrahedra", "/mesh/fe_nodes", "/mesh/dofs",
                               "/time_s/mesh", "/time_s/read_mesh", "/time_s/setup", "/time_s/assembly",
                               "/time_s/solve", "/time_s/postprocess", "/time_s/build", "/time_s/total"}) {
     const json::json_pointer at(pointer);
-    if (!level.contains(at) || !finite(level.at(at))) return std::string(pointer).substr(1) + " is not a finite number";
+    if (!level.contains(at) || !is_finite_number(level.at(at))) return std::string(pointer).substr(1) + " is not a finite number";
   }
-  if (!level.contains("/qoi/force_N"_json_pointer) || !finite_vector(level.at("/qoi/force_N"_json_pointer)))
+  if (!level.contains("/qoi/force_N"_json_pointer) || !is_finite_vector(level.at("/qoi/force_N"_json_pointer)))
     return "qoi/force_N is not three finite numbers";
   if (!level.contains("/mesh/mesh_file"_json_pointer) || !level.at("/mesh/mesh_file"_json_pointer).is_string())
     return "mesh/mesh_file is not a path";
@@ -56,7 +52,7 @@ std::string level_record_defect(const json& level, const json& params) {
   if (!probes.is_array()) return "qoi/probes is not a list";
   for (const json& probe : probes)
     if (!probe.is_object() || !probe.value("found", json()).is_boolean() ||
-        !finite_vector(probe.value("displacement_m", json())))
+        !is_finite_vector(probe.value("displacement_m", json())))
       return "a probe of qoi/probes has no finite displacement_m or no found flag";
   return "";
 }

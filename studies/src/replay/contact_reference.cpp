@@ -29,6 +29,22 @@ using nlohmann::json;
 /// The punch force converges at first order in the rim mesh size (the r^(1/2) edge singularity).
 constexpr double punch_convergence_order = 1.0;
 
+/// What makes a cached stiffness record unusable, or "" when it is whole: another level's
+/// parameters, a stiffness that is not a finite 3 × 3 matrix, or a probe map that is neither
+/// null (a probe outside the mesh) nor one.
+std::string stiffness_record_defect(const json& record, const json& params) {
+  if (!record.is_object()) return "not a JSON object";
+  if (record.value("params", json()) != params) return "its parameters are not this level's";
+  if (!is_finite_matrix(record.value("stiffness_N_per_m", json()))) return "stiffness_N_per_m is not a finite 3 x 3 matrix";
+  for (const char* key : {"dofs", "tetrahedra", "solves", "seconds", "mesh_seconds"})
+    if (!is_finite_number(record.value(key, json()))) return std::string(key) + " is not a finite number";
+  const json maps = record.value("probe_unit_maps", json());
+  if (!maps.is_array()) return "probe_unit_maps is not a list";
+  for (const json& map : maps)
+    if (!map.is_null() && !is_finite_matrix(map)) return "a probe_unit_maps entry is neither null nor a finite 3 x 3 matrix";
+  return "";
+}
+
 /// The reference's tool stiffness at one contact and mesh level: from the cache, or meshed and
 /// solved on this rank alone (MPI_COMM_SELF). `probes` are the surface vertices whose
 /// displacement the finest level reports; `vtu_directory` gets its unit fields.
@@ -55,6 +71,8 @@ json solve_level(const meshes::MeshParameters& geometry, const PalpationReplaySt
   if (!options.cache_directory.empty() && fs::exists(record_path)) {
     try {
       json record = json::parse(read_file(record_path));
+      const std::string defect = stiffness_record_defect(record, params);
+      if (!defect.empty()) throw std::runtime_error(defect);
       record["cached"] = true;
       record["entry"] = entry;
       return record;

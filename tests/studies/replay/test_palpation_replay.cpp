@@ -14,7 +14,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 namespace touchstone::studies {
 namespace {
@@ -244,6 +246,45 @@ TEST(PalpationReplayRun, EveryTickComparesWithItsContactsStiffness) {
   // model's known −4 % of the half-space exterior on this body.
   const double uncertainty = results.at("summary").at("reference_uncertainty_max").get<double>();
   EXPECT_LT(results.at("summary").at("force_error_l2").get<double>(), 0.04 + 2 * uncertainty);
+}
+
+// A stiffness record left damaged in the replay's cache (cut short, a null stiffness: what a NaN
+// becomes in JSON) is solved again with a note, not used and not the end of the run; the
+// contacts' reference stiffness is the first run's.
+TEST(PalpationReplayRun, ADamagedCachedStiffnessIsSolvedAgain) {
+  touchstone::testing::TemporaryDirectory directory("replay_damaged_cache");
+  const PalpationReplayStudy study = read_text(study_text(""));
+  ReplayRunOptions options;
+  options.output_directory = directory.path("first");
+  options.cache_directory = directory.path("cache");
+  options.quiet = true;
+  const nlohmann::json first = run_palpation_replay(study, options);
+
+  std::vector<std::filesystem::path> records;
+  for (const auto& entry : std::filesystem::directory_iterator(directory.path("cache") + "/replay"))
+    records.push_back(entry.path() / "stiffness.json");
+  ASSERT_GE(records.size(), 2u);
+  const auto text_of = [](const std::filesystem::path& path) {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string whole = text_of(records[0]);
+  std::ofstream(records[0]) << whole.substr(0, whole.size() / 2);
+  nlohmann::json null_stiffness = nlohmann::json::parse(text_of(records[1]));
+  null_stiffness["stiffness_N_per_m"][0][0] = nullptr;
+  std::ofstream(records[1]) << null_stiffness.dump(1);
+
+  options.output_directory = directory.path("second");
+  const nlohmann::json second = run_palpation_replay(study, options);
+  ASSERT_EQ(second.at("contacts").size(), first.at("contacts").size());
+  int solved_again = 0;
+  for (std::size_t c = 0; c < first.at("contacts").size(); ++c) {
+    const auto& before = first.at("contacts")[c];
+    const auto& after = second.at("contacts")[c];
+    EXPECT_EQ(after.at("reference_stiffness_N_per_m"), before.at("reference_stiffness_N_per_m")) << c;
+    for (const auto& level : after.at("reference_levels")) solved_again += level.at("cached").get<bool>() ? 0 : 1;
+  }
+  EXPECT_EQ(solved_again, 2);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,11 @@ nlohmann::json matrix_json(const Eigen::Ref<const Eigen::MatrixXd>& m, int n = 3
 /// nlohmann::json's exception on a missing or non-numeric entry (a null written for NaN included).
 Eigen::Vector3d vector_from_json(const nlohmann::json& j);
 Eigen::Matrix3d matrix_from_json(const nlohmann::json& j);
+/// Whether a record read back holds what this program writes for finite values: a finite number,
+/// an n-vector of them, rows of an n × n matrix of them (a NaN was written as null).
+bool is_finite_number(const nlohmann::json& j);
+bool is_finite_vector(const nlohmann::json& j, std::size_t n = 3);
+bool is_finite_matrix(const nlohmann::json& j, std::size_t n = 3);
 /// A JSON number, or NaN when it is null, absent or not a number.
 double value_or_nan(const nlohmann::json& j);
 double value_or_nan(const nlohmann::json& object, const char* key);
