@@ -10,8 +10,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -215,16 +213,11 @@ TEST(ReferenceStudy, ADamagedLevelRecordIsSolvedAgain) {
     records.push_back(entry.path() / "case.json");
   }
   ASSERT_EQ(records.size(), 2u);
-  const auto record_text = [](const fs::path& path) {
-    std::ifstream in(path);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  const auto write = [](const fs::path& path, const std::string& contents) { std::ofstream(path) << contents; };
-  const std::string whole = record_text(records[0]);
-  write(records[0], whole.substr(0, whole.size() / 2));
-  nlohmann::json null_force = nlohmann::json::parse(record_text(records[1]));
+  const std::string whole = read_file(records[0].string());
+  write_file_atomically(records[0].string(), whole.substr(0, whole.size() / 2));
+  nlohmann::json null_force = nlohmann::json::parse(read_file(records[1].string()));
   null_force["qoi"]["axial_force_N"] = nullptr;
-  write(records[1], null_force.dump(2));
+  write_file_atomically(records[1].string(), null_force.dump(2));
 
   const nlohmann::json second = run_reference_study(study, options);
   for (int level = 0; level < 2; ++level) {
@@ -233,9 +226,9 @@ TEST(ReferenceStudy, ADamagedLevelRecordIsSolvedAgain) {
   }
 
   // Another problem's record under this level's key (a hash collision, a copied file).
-  nlohmann::json other = nlohmann::json::parse(record_text(records[0]));
+  nlohmann::json other = nlohmann::json::parse(read_file(records[0].string()));
   other["params"]["poisson_ratio"] = 0.3;
-  write(records[0], other.dump(2));
+  write_file_atomically(records[0].string(), other.dump(2));
   const nlohmann::json third = run_reference_study(study, options);
   int solved_again = 0;
   for (int level = 0; level < 2; ++level) {

@@ -14,7 +14,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -264,15 +263,11 @@ TEST(PalpationReplayRun, ADamagedCachedStiffnessIsSolvedAgain) {
   for (const auto& entry : std::filesystem::directory_iterator(directory.path("cache") + "/replay"))
     records.push_back(entry.path() / "stiffness.json");
   ASSERT_GE(records.size(), 2u);
-  const auto text_of = [](const std::filesystem::path& path) {
-    std::ifstream in(path);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  const std::string whole = text_of(records[0]);
-  std::ofstream(records[0]) << whole.substr(0, whole.size() / 2);
-  nlohmann::json null_stiffness = nlohmann::json::parse(text_of(records[1]));
+  const std::string whole = read_file(records[0].string());
+  write_file_atomically(records[0].string(), whole.substr(0, whole.size() / 2));
+  nlohmann::json null_stiffness = nlohmann::json::parse(read_file(records[1].string()));
   null_stiffness["stiffness_N_per_m"][0][0] = nullptr;
-  std::ofstream(records[1]) << null_stiffness.dump(1);
+  write_file_atomically(records[1].string(), null_stiffness.dump(1));
 
   options.output_directory = directory.path("second");
   const nlohmann::json second = run_palpation_replay(study, options);
