@@ -41,6 +41,8 @@ const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverK
 const std::vector<Named<mfs::VolumetricTerm>> volumetric_terms{{"auto", mfs::VolumetricTerm::automatic},
                                                                {"full", mfs::VolumetricTerm::full},
                                                                {"projected", mfs::VolumetricTerm::projected}};
+const std::vector<Named<mfs::GradientCorrection>> gradient_corrections{{"none", mfs::GradientCorrection::none},
+                                                                       {"linear", mfs::GradientCorrection::linear}};
 // "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
 const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
                                                          {"reaction", mfs::ForceMethod::reaction},
@@ -117,6 +119,9 @@ std::vector<Field> make_fields() {
   f.push_back(integer({"enriched", "volumetric_linear_space_up_to_nodes", "nodes",
                        "the projected volumetric term's space: linear polynomials and div psi up to this many nodes, the nodes' functions beyond"},
                       [](auto& s) -> auto& { return s.enriched.volumetric_linear_space_up_to_nodes; }));
+  f.push_back(choice({"enriched", "gradient_correction", "",
+                      "none or linear: MLS gradients corrected so that the volume rule integrates a linear field's weak form exactly"},
+                     gradient_corrections, [](auto& s) -> auto& { return s.enriched.gradient_correction; }));
 
   f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,
                      [](auto& s) -> auto& { return s.sprinkling.layout; }));

@@ -165,6 +165,7 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},
           {"mean_volume_point_nodes", json_number(e.mean_volume_point_nodes)},
+          {"gradient_correction_left", json_number(e.gradient_correction_left)},
           {"boundary_points", e.boundary_points},
           {"kkt_relative_residual", json_number(e.kkt_relative_residual)}};
 }

@@ -2,6 +2,7 @@
 // (one concept; its quadratures and Gram assembly live in their own files).
 #include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 
+#include "touchstone/realtime/mfs/consistent_gradients.hpp"
 #include "touchstone/realtime/mfs/gradient_gram.hpp"
 #include "touchstone/realtime/mfs/quadrature_rules.hpp"
 
@@ -446,7 +447,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
 
   using clock = std::chrono::steady_clock;
   const auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  auto step = clock::now();  // the supports are grown for the volume rule's points too: count them in volume_s
+  auto step = clock::now();  // the supports and the boundary samples count in boundary_s
   cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
                                        settings.support_neighbours, settings.min_point_neighbours);
   MlsEvaluation eval;
@@ -459,6 +460,48 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     model.max_support_scale = std::max(model.max_support_scale, eval.support_scale);
     return true;
   };
+
+  // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
+  // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n.
+  struct BoundaryPoint {
+    std::vector<int> nodes;
+    std::vector<double> values;
+    std::vector<PunchFieldSample> psi;
+    Eigen::Vector3d x, normal;
+    double weight;
+  };
+  const auto sample_set = [&](const PatchQuadrature& set, const char* name, std::vector<BoundaryPoint>& points) {
+    points.resize(set.points.size());
+    for (std::size_t q = 0; q < set.points.size(); ++q) {
+      if (!evaluate(set.points[q], Derivatives::values))
+        throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(q));
+      BoundaryPoint& b = points[q];
+      b.nodes = eval.neighbours;
+      b.values = eval.value;
+      b.x = set.points[q];
+      b.normal = set.normals[q];
+      b.weight = set.weights[q];
+      b.psi.resize(model.modes.size());
+      for (std::size_t i = 0; i < model.modes.size(); ++i) b.psi[i] = punch_field(model.modes[i], frame, a, material, b.x);
+    }
+  };
+  std::vector<BoundaryPoint> patch, free_surface, cut, clamped;
+  try {
+    sample_set(quad.patch, "patch", patch);
+    sample_set(quad.free_surface, "free-surface", free_surface);
+    sample_set(quad.cut, "cut", cut);
+    sample_set(quad.clamped, "clamped-surface", clamped);
+  } catch (const std::runtime_error& e) {
+    return fail(e.what());
+  }
+  model.boundary_points = static_cast<int>(patch.size() + free_surface.size() + cut.size() + clamped.size());
+  // The whole boundary with its MLS values: the integration constraints of the gradient correction.
+  ShapeSamples boundary;
+  if (settings.gradient_correction != GradientCorrection::none)
+    for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
+      for (const BoundaryPoint& b : *set) boundary.add(b.x, b.normal, b.weight, b.nodes, b.values, nullptr);
+  const double boundary_sampling_s = seconds_since(step);
+  step = clock::now();
 
   // MLS–MLS: ∫ ε(N_a):C:ε(N_b) dV on the volume points, through the gradient Gram matrix fed
   // in a spatially coherent order (dense products over small node sets).
@@ -486,50 +529,72 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   std::vector<double> psi_divergence(static_cast<std::size_t>(m));
   std::vector<int> space_at_point;
   std::vector<double> space_values;
+  // The shape functions at every volume point (in a spatially coherent order), corrected to the
+  // integration constraints if asked; then the MLS–MLS block and the volumetric term from them.
+  // Without a correction each point is used as soon as it is evaluated (nothing is stored);
+  // with one, every point is stored, corrected, and then used.
+  const auto use_point = [&](const Eigen::Vector3d& x, double w, const int* nodes, const double* values,
+                             const Eigen::Vector3d* gradients, int count) {
+    gram.add(nodes, gradients, count, w);
+    model.mean_volume_point_nodes += count;
+    if (projected) {
+      for (Eigen::Index i = 0; i < m; ++i)
+        psi_divergence[static_cast<std::size_t>(i)] =
+            divergence_scale * punch_field(model.modes[static_cast<std::size_t>(i)], frame, a, material, x).stress_Pa_per_m.trace();
+      // The space's functions that are non-zero here: the four monomials, or the nodes in reach
+      // with their MLS values.
+      if (linear_space) {
+        const Eigen::Vector3d xi = (x - contact.point) / cut_distance;
+        space_at_point.assign({0, 1, 2, 3});
+        space_values.assign({1.0, xi.x(), xi.y(), xi.z()});
+      } else {
+        space_at_point.assign(nodes, nodes + count);
+        space_values.assign(values, values + count);
+      }
+      for (std::size_t k = 0; k < space_at_point.size(); ++k) {
+        const double wq = w * space_values[k];
+        for (std::size_t l = 0; l < space_at_point.size(); ++l) space_gram(space_at_point[k], space_at_point[l]) += wq * space_values[l];
+        for (int l = 0; l < count; ++l) divergence_moments_t.block<3, 1>(3 * nodes[l], space_at_point[k]) += wq * gradients[l];
+        for (Eigen::Index i = 0; i < m; ++i)
+          space_gram(space_functions + i, space_at_point[k]) += wq * psi_divergence[static_cast<std::size_t>(i)];
+      }
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const double d = w * psi_divergence[static_cast<std::size_t>(i)];
+        for (int l = 0; l < count; ++l) divergence_moments_t.block<3, 1>(3 * nodes[l], space_functions + i) += d * gradients[l];
+      }
+      for (Eigen::Index i = 0; i < m; ++i)
+        for (Eigen::Index j = 0; j <= i; ++j)
+          space_gram(space_functions + i, space_functions + j) +=
+              w * psi_divergence[static_cast<std::size_t>(i)] * psi_divergence[static_cast<std::size_t>(j)];
+    }
+  };
+  const bool corrected = settings.gradient_correction != GradientCorrection::none;
+  ShapeSamples volume;
   for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
-    if (!evaluate(quad.volume.points[static_cast<std::size_t>(q)], Derivatives::gradients))
+    const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
+    const double w = quad.volume.weights[static_cast<std::size_t>(q)];
+    if (!evaluate(x, Derivatives::gradients))
       return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes"
                                                            : eval.status == MlsStatus::singular_moments
                                                                ? "singular moment matrix"
                                                                : "non-finite input") +
                   ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " +
                   std::to_string(q));
-    gram.add(eval.neighbours, eval.gradient, quad.volume.weights[static_cast<std::size_t>(q)]);
-    model.mean_volume_point_nodes += static_cast<double>(eval.neighbours.size());
-    if (projected) {
-      const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
-      const double w = quad.volume.weights[static_cast<std::size_t>(q)];
-      for (Eigen::Index i = 0; i < m; ++i)
-        psi_divergence[static_cast<std::size_t>(i)] =
-            divergence_scale * punch_field(model.modes[static_cast<std::size_t>(i)], frame, a, material, x).stress_Pa_per_m.trace();
-      // The space's functions that are non-zero here: the four monomials, or the nodes in reach
-      // with their MLS values.
-      const std::vector<int>& nodes = eval.neighbours;
-      if (linear_space) {
-        const Eigen::Vector3d xi = (x - contact.point) / cut_distance;
-        space_at_point.assign({0, 1, 2, 3});
-        space_values.assign({1.0, xi.x(), xi.y(), xi.z()});
-      } else {
-        space_at_point.assign(nodes.begin(), nodes.end());
-        space_values.assign(eval.value.begin(), eval.value.end());
-      }
-      for (std::size_t k = 0; k < space_at_point.size(); ++k) {
-        const double wq = w * space_values[k];
-        for (std::size_t l = 0; l < space_at_point.size(); ++l) space_gram(space_at_point[k], space_at_point[l]) += wq * space_values[l];
-        for (std::size_t l = 0; l < nodes.size(); ++l)
-          divergence_moments_t.block<3, 1>(3 * nodes[l], space_at_point[k]) += wq * eval.gradient[l];
-        for (Eigen::Index i = 0; i < m; ++i)
-          space_gram(space_functions + i, space_at_point[k]) += wq * psi_divergence[static_cast<std::size_t>(i)];
-      }
-      for (Eigen::Index i = 0; i < m; ++i) {
-        const double d = w * psi_divergence[static_cast<std::size_t>(i)];
-        for (std::size_t l = 0; l < nodes.size(); ++l)
-          divergence_moments_t.block<3, 1>(3 * nodes[l], space_functions + i) += d * eval.gradient[l];
-      }
-      for (Eigen::Index i = 0; i < m; ++i)
-        for (Eigen::Index j = 0; j <= i; ++j)
-          space_gram(space_functions + i, space_functions + j) +=
-              w * psi_divergence[static_cast<std::size_t>(i)] * psi_divergence[static_cast<std::size_t>(j)];
+    if (corrected)
+      volume.add(x, Eigen::Vector3d::Zero(), w, eval.neighbours, eval.value, &eval.gradient);
+    else
+      use_point(x, w, eval.neighbours.data(), eval.value.data(), eval.gradient.data(), static_cast<int>(eval.neighbours.size()));
+  }
+  if (corrected) {
+    try {
+      model.gradient_correction_left = correct_gradients(cloud.positions, boundary, settings.gradient_correction, volume);
+    } catch (const std::invalid_argument& e) {
+      return fail(std::string("the gradient correction failed: ") + e.what());
+    }
+    for (std::size_t q = 0; q < volume.size(); ++q) {
+      const int first = volume.offset[q];
+      use_point(volume.points[q], volume.weights[q], volume.node.data() + first, volume.value.data() + first,
+                volume.gradient.data() + first, volume.offset[q + 1] - first);
     }
   }
   gram.add_isotropic_stiffness(projected ? 0.0 : lambda, mu, K);
@@ -568,40 +633,6 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   model.volume_s = seconds_since(step);
   step = clock::now();
 
-  // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
-  // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n.
-  struct BoundaryPoint {
-    std::vector<int> nodes;
-    std::vector<double> values;
-    std::vector<PunchFieldSample> psi;
-    Eigen::Vector3d x, normal;
-    double weight;
-  };
-  const auto sample_set = [&](const PatchQuadrature& set, const char* name, std::vector<BoundaryPoint>& points) {
-    points.resize(set.points.size());
-    for (std::size_t q = 0; q < set.points.size(); ++q) {
-      if (!evaluate(set.points[q], Derivatives::values))
-        throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(q));
-      BoundaryPoint& b = points[q];
-      b.nodes = eval.neighbours;
-      b.values = eval.value;
-      b.x = set.points[q];
-      b.normal = set.normals[q];
-      b.weight = set.weights[q];
-      b.psi.resize(model.modes.size());
-      for (std::size_t i = 0; i < model.modes.size(); ++i) b.psi[i] = punch_field(model.modes[i], frame, a, material, b.x);
-    }
-  };
-  std::vector<BoundaryPoint> patch, free_surface, cut, clamped;
-  try {
-    sample_set(quad.patch, "patch", patch);
-    sample_set(quad.free_surface, "free-surface", free_surface);
-    sample_set(quad.cut, "cut", cut);
-    sample_set(quad.clamped, "clamped-surface", clamped);
-  } catch (const std::runtime_error& e) {
-    return fail(e.what());
-  }
-  model.boundary_points = static_cast<int>(patch.size() + free_surface.size() + cut.size() + clamped.size());
   for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
     for (const BoundaryPoint& b : *set)
       for (Eigen::Index i = 0; i < m; ++i) {
@@ -755,7 +786,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   // which is positive definite exactly when the KKT solution is unique: one Cholesky of the
   // n × n K_ρ and a c × c Schur complement S = B K_ρ⁻¹ Bᵀ, instead of an LU of the indefinite
   // (n + c) × (n + c) system. With Z = K_ρ⁻¹ Bᵀ: x = Z S⁻¹ G, y = ρ G − S⁻¹ G.
-  model.boundary_s = seconds_since(step);
+  model.boundary_s = boundary_sampling_s + seconds_since(step);
   step = clock::now();
   const Eigen::Index c = static_cast<Eigen::Index>(rows.size());
   model.multipliers = static_cast<int>(c);

@@ -24,19 +24,24 @@ GradientGram::GradientGram(int node_count, int max_batch_points, double max_unio
 
 void GradientGram::add(const std::vector<int>& nodes, const std::vector<Eigen::Vector3d>& gradients_per_m,
                        double weight_m3) {
+  if (gradients_per_m.size() != nodes.size()) throw std::invalid_argument("GradientGram::add: one gradient per node is needed");
+  add(nodes.data(), gradients_per_m.data(), static_cast<int>(nodes.size()), weight_m3);
+}
+
+void GradientGram::add(const int* nodes, const Eigen::Vector3d* gradients_per_m, int count, double weight_m3) {
   int fresh = 0;
-  for (int node : nodes) fresh += slot_[static_cast<std::size_t>(node)] < 0 ? 1 : 0;
-  const int widest = std::max(batch_widest_, static_cast<int>(nodes.size()));
+  for (int k = 0; k < count; ++k) fresh += slot_[static_cast<std::size_t>(nodes[k])] < 0 ? 1 : 0;
+  const int widest = std::max(batch_widest_, count);
   if (batch_size_ == max_batch_points_ ||
       (batch_size_ > 0 && static_cast<double>(union_nodes_.size() + fresh) > max_union_growth_ * widest))
     flush();
-  batch_widest_ = std::max(batch_widest_, static_cast<int>(nodes.size()));
+  batch_widest_ = std::max(batch_widest_, count);
   const double root_weight = std::sqrt(std::max(weight_m3, 0.0));
   std::vector<Eigen::Vector3d>& g = batch_gradients_[static_cast<std::size_t>(batch_size_)];
-  g.resize(gradients_per_m.size());
-  for (std::size_t k = 0; k < gradients_per_m.size(); ++k) g[k] = root_weight * gradients_per_m[k];
-  batch_nodes_[static_cast<std::size_t>(batch_size_)] = nodes;
-  for (int node : nodes)
+  g.resize(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k) g[static_cast<std::size_t>(k)] = root_weight * gradients_per_m[k];
+  batch_nodes_[static_cast<std::size_t>(batch_size_)].assign(nodes, nodes + count);
+  for (int node : batch_nodes_[static_cast<std::size_t>(batch_size_)])
     if (slot_[static_cast<std::size_t>(node)] < 0) {
       slot_[static_cast<std::size_t>(node)] = 0;  // marked; numbered in flush()
       union_nodes_.push_back(node);

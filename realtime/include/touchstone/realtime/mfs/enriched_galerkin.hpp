@@ -34,6 +34,7 @@
 /// through a Cholesky factorisation of the augmented stiffness and a small Schur complement.
 
 #include "touchstone/geometry/triangle_surface.hpp"
+#include "touchstone/realtime/mfs/consistent_gradients.hpp"
 #include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/geometry/material.hpp"
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
@@ -113,6 +114,9 @@ struct EnrichedSettings {
   /// shape functions, which N constraints lock; many nodes make local ones, whose divergence a
   /// global polynomial cannot hold, so they come out too soft.
   int volumetric_linear_space_up_to_nodes = 60;
+  /// Correct the MLS gradients on the volume rule to its integration constraints
+  /// (consistent_gradients.hpp), so that a coarser volume rule keeps the model's accuracy.
+  GradientCorrection gradient_correction = GradientCorrection::none;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -156,9 +160,12 @@ struct EnrichedModel {
   double mean_volume_point_nodes = 0;
   double min_rcond = 1, max_support_scale = 1;
   double kkt_relative_residual = 0;
-  /// Where the build's time went [s]: the supports and the volume rule (MLS gradients, the
-  /// MLS–MLS block and the projected volumetric term), the boundary rules with the ψ blocks and
-  /// the constraint rows, and the KKT solve.
+  /// The part of the integration-constraint residuals the gradient correction could not remove,
+  /// relative to their largest (correct_gradients(); 0 without a correction).
+  double gradient_correction_left = 0;
+  /// Where the build's time went [s]: the volume rule (MLS gradients, their correction, the
+  /// MLS–MLS block and the projected volumetric term), the supports and the boundary rules with
+  /// the ψ blocks and the constraint rows, and the KKT solve.
   double volume_s = 0, boundary_s = 0, solve_s = 0;
   std::string status = "ok";
   bool ok() const { return status == "ok"; }

@@ -28,6 +28,8 @@ class GradientGram {
   /// One quadrature point of weight `weight_m3` [m³] (≥ 0) whose shape functions of `nodes`
   /// (indices < node_count, no repeats) have gradients `gradients_per_m` [1/m].
   void add(const std::vector<int>& nodes, const std::vector<Eigen::Vector3d>& gradients_per_m, double weight_m3);
+  /// The same for `count` nodes and gradients in arrays.
+  void add(const int* nodes, const Eigen::Vector3d* gradients_per_m, int count, double weight_m3);
 
   /// K += the isotropic stiffness [N/m] of everything added (K is 3N × 3N or larger, node a's
   /// component i at row 3a + i). Flushes the open batch.

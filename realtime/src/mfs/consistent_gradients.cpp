@@ -1,0 +1,175 @@
+/// @file
+/// Variationally consistent integration: the constraint residuals, the affine-blind correction
+/// and its N × N system.
+
+#include "touchstone/realtime/mfs/consistent_gradients.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+
+#include <string>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace touchstone::realtime::mfs {
+namespace {
+
+/// R_J = Σ_b w N_J n − Σ_q w ∇N_J (rows: nodes), and Σ|terms| per entry to judge it against.
+void constraint_residuals(std::size_t node_count, const ShapeSamples& volume, const ShapeSamples& boundary,
+                          Eigen::MatrixX3d& residual, Eigen::MatrixX3d* magnitude) {
+  if (volume.gradient.size() != volume.node.size())
+    throw std::invalid_argument("consistent gradients: the volume samples carry no gradients");
+  residual.setZero(static_cast<Eigen::Index>(node_count), 3);
+  if (magnitude) magnitude->setZero(static_cast<Eigen::Index>(node_count), 3);
+  for (std::size_t q = 0; q < volume.size(); ++q)
+    for (int e = volume.offset[q]; e < volume.offset[q + 1]; ++e) {
+      const Eigen::Index J = volume.node[static_cast<std::size_t>(e)];
+      const Eigen::Vector3d term = volume.weights[q] * volume.gradient[static_cast<std::size_t>(e)];
+      residual.row(J) -= term.transpose();
+      if (magnitude) magnitude->row(J) += term.cwiseAbs().transpose();
+    }
+  for (std::size_t b = 0; b < boundary.size(); ++b)
+    for (int e = boundary.offset[b]; e < boundary.offset[b + 1]; ++e) {
+      const Eigen::Index J = boundary.node[static_cast<std::size_t>(e)];
+      const Eigen::Vector3d term = boundary.weights[b] * boundary.value[static_cast<std::size_t>(e)] * boundary.normals[b];
+      residual.row(J) += term.transpose();
+      if (magnitude) magnitude->row(J) += term.cwiseAbs().transpose();
+    }
+}
+
+}  // namespace
+
+void ShapeSamples::add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const std::vector<int>& nodes,
+                       const std::vector<double>& values, const std::vector<Eigen::Vector3d>* gradients) {
+  points.push_back(x);
+  normals.push_back(normal);
+  weights.push_back(weight);
+  node.insert(node.end(), nodes.begin(), nodes.end());
+  value.insert(value.end(), values.begin(), values.begin() + static_cast<std::ptrdiff_t>(nodes.size()));
+  if (gradients) gradient.insert(gradient.end(), gradients->begin(), gradients->begin() + static_cast<std::ptrdiff_t>(nodes.size()));
+  offset.push_back(static_cast<int>(node.size()));
+}
+
+double integration_constraint_violation(const std::vector<Eigen::Vector3d>& nodes, const ShapeSamples& volume,
+                                        const ShapeSamples& boundary) {
+  Eigen::MatrixX3d residual, magnitude;
+  constraint_residuals(nodes.size(), volume, boundary, residual, &magnitude);
+  double worst = 0;
+  for (Eigen::Index J = 0; J < residual.rows(); ++J)
+    for (int i = 0; i < 3; ++i)
+      if (magnitude(J, i) > 0) worst = std::max(worst, std::abs(residual(J, i)) / magnitude(J, i));
+  return worst;
+}
+
+double correct_gradients(const std::vector<Eigen::Vector3d>& nodes, const ShapeSamples& boundary,
+                         GradientCorrection correction, ShapeSamples& volume) {
+  if (correction == GradientCorrection::none) return 0;
+  const Eigen::Index n = static_cast<Eigen::Index>(nodes.size());
+  Eigen::MatrixX3d residual;
+  constraint_residuals(nodes.size(), volume, boundary, residual, nullptr);
+  const double largest = residual.cwiseAbs().maxCoeff();
+  if (!(largest > 0)) return 0;
+
+  // The affine nodal vectors (1, x_J) in a frame centred and scaled on the cloud, orthonormal.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& x : nodes) centre += x / static_cast<double>(n);
+  double reach = 0;
+  for (const Eigen::Vector3d& x : nodes) reach = std::max(reach, (x - centre).norm());
+  const double scale = reach > 0 ? 1 / reach : 1;
+  Eigen::MatrixXd affine(n, 4);
+  for (Eigen::Index J = 0; J < n; ++J) affine.row(J) << 1, scale * (nodes[static_cast<std::size_t>(J)] - centre).transpose();
+  const Eigen::MatrixXd affine_basis = Eigen::HouseholderQR<Eigen::MatrixXd>(affine).householderQ() * Eigen::MatrixXd::Identity(n, 4);
+
+  // Per point, Π_q's orthonormal basis Q_q = E_q L_q⁻ᵀ (E_q the k × 4 affine vectors over the
+  // point's nodes, L_q Lᵀ_q = E_qᵀ E_q), kept for the correction below, and
+  // A = Σ_q w_q (1 − Q_q Q_qᵀ): its diagonal part per point, the products Σ_q (√w Q_q)(√w Q_q)ᵀ in
+  // batches of consecutive points over the union of their nodes (one dense rank update each).
+  Eigen::MatrixXd system = Eigen::MatrixXd::Zero(n, n);
+  std::vector<double> basis(4 * volume.node.size());  // Q_q row by row, at 4 × the point's offset
+  constexpr int batch_points = 32;
+  std::vector<int> slot(static_cast<std::size_t>(n), -1), union_nodes;
+  Eigen::MatrixXd batch, batch_gram;
+  std::size_t batch_first = 0;
+  const auto flush = [&](std::size_t end) {
+    if (end == batch_first) return;
+    const Eigen::Index u = static_cast<Eigen::Index>(union_nodes.size());
+    batch.setZero(u, 4 * static_cast<Eigen::Index>(end - batch_first));
+    for (std::size_t q = batch_first; q < end; ++q) {
+      const double root_w = std::sqrt(std::max(volume.weights[q], 0.0));
+      for (int e = volume.offset[q]; e < volume.offset[q + 1]; ++e)
+        for (int c = 0; c < 4; ++c)
+          batch(slot[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(e)])], 4 * static_cast<Eigen::Index>(q - batch_first) + c) =
+              root_w * basis[4 * static_cast<std::size_t>(e) + static_cast<std::size_t>(c)];
+    }
+    batch_gram.setZero(u, u);
+    batch_gram.selfadjointView<Eigen::Lower>().rankUpdate(batch);
+    // Into A's lower triangle (the union is in first-seen order, not sorted).
+    for (Eigen::Index b = 0; b < u; ++b)
+      for (Eigen::Index a = b; a < u; ++a) {
+        const int i = union_nodes[static_cast<std::size_t>(a)], j = union_nodes[static_cast<std::size_t>(b)];
+        system(std::max(i, j), std::min(i, j)) -= batch_gram(a, b);
+      }
+    for (int node : union_nodes) slot[static_cast<std::size_t>(node)] = -1;
+    union_nodes.clear();
+    batch_first = end;
+  };
+  for (std::size_t q = 0; q < volume.size(); ++q) {
+    if (q - batch_first == batch_points) flush(q);
+    const int first = volume.offset[q], k = volume.offset[q + 1] - first;
+    Eigen::Matrix4d moments = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d e;
+    for (int a = 0; a < k; ++a) {
+      e << 1, scale * (nodes[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] - volume.points[q]);
+      moments.selfadjointView<Eigen::Lower>().rankUpdate(e);
+    }
+    const Eigen::LLT<Eigen::Matrix4d> cholesky(moments.selfadjointView<Eigen::Lower>());
+    if (cholesky.info() != Eigen::Success)
+      throw std::invalid_argument("consistent gradients: the nodes seen at volume point " + std::to_string(q) +
+                                  " do not span the affine fields");
+    for (int a = 0; a < k; ++a) {
+      const int J = volume.node[static_cast<std::size_t>(first + a)];
+      e << 1, scale * (nodes[static_cast<std::size_t>(J)] - volume.points[q]);
+      cholesky.matrixL().solveInPlace(e);  // row a of Q = E L⁻ᵀ is (L⁻¹ e)ᵀ
+      for (int c = 0; c < 4; ++c) basis[4 * static_cast<std::size_t>(first + a) + static_cast<std::size_t>(c)] = e[c];
+      system(J, J) += volume.weights[q];
+      if (slot[static_cast<std::size_t>(J)] < 0) {
+        slot[static_cast<std::size_t>(J)] = static_cast<int>(union_nodes.size());
+        union_nodes.push_back(J);
+      }
+    }
+  }
+  flush(volume.size());
+  system.triangularView<Eigen::StrictlyUpper>() = system.transpose();
+  // The affine vectors span A's null space: take R's component there out (the rules'
+  // disagreement) and fix ξ's component there (it changes no gradient) by adding their projector.
+  const Eigen::MatrixX3d compatible = residual - affine_basis * (affine_basis.transpose() * residual);
+  const double unremovable = (residual - compatible).cwiseAbs().maxCoeff() / largest;
+  const double diagonal_mean = system.diagonal().mean();
+  for (Eigen::Index J = 0; J < n; ++J)
+    if (!(system(J, J) > 0)) system(J, J) = diagonal_mean;  // a node no volume point sees: ξ_J = 0
+  system.noalias() += diagonal_mean * affine_basis * affine_basis.transpose();
+  Eigen::MatrixX3d xi = compatible;
+  Eigen::LLT<Eigen::MatrixXd> cholesky(system);
+  if (cholesky.info() != Eigen::Success)
+    throw std::invalid_argument("consistent gradients: the correction's system is not positive definite (the volume points' node sets do not overlap)");
+  cholesky.solveInPlace(xi);
+
+  Eigen::Matrix<double, 4, 3> projected;
+  for (std::size_t q = 0; q < volume.size(); ++q) {
+    const int first = volume.offset[q], k = volume.offset[q + 1] - first;
+    projected.setZero();
+    for (int a = 0; a < k; ++a)
+      projected.noalias() += Eigen::Map<const Eigen::Vector4d>(&basis[4 * static_cast<std::size_t>(first + a)]) *
+                             xi.row(volume.node[static_cast<std::size_t>(first + a)]);
+    for (int a = 0; a < k; ++a) {
+      const int J = volume.node[static_cast<std::size_t>(first + a)];
+      volume.gradient[static_cast<std::size_t>(first + a)] +=
+          (xi.row(J) - Eigen::Map<const Eigen::Vector4d>(&basis[4 * static_cast<std::size_t>(first + a)]).transpose() * projected).transpose();
+    }
+  }
+  return unremovable;
+}
+
+}  // namespace touchstone::realtime::mfs
