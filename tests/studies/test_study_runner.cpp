@@ -471,6 +471,16 @@ TEST(AccuracyIndicator, EnrichedCasesAreJudgedByWhatTheEnrichmentCarries) {
   bad["diagnostics"]["enriched"]["mls_energy_share"] = 0.1;
   bad["diagnostics"]["enriched"]["amplitudes_per_depth"] = {1.0};
   EXPECT_TRUE(accuracy_indicator(bad, d).flags.empty());
+  // Corrected gradients: what the correction left is judged (on the hemisphere about 1e-3).
+  bad["params"]["gradient_correction"] = "linear";
+  bad["diagnostics"]["enriched"]["gradient_correction_left"] = 1e-3;
+  a = accuracy_indicator(bad, d);
+  EXPECT_DOUBLE_EQ(a.gradient_correction_left, 1e-3);
+  EXPECT_TRUE(a.flags.empty());
+  bad["diagnostics"]["enriched"]["gradient_correction_left"] = 0.2;
+  EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"rules_disagree"}));
+  bad["diagnostics"]["enriched"].erase("gradient_correction_left");  // a correction that reported nothing
+  EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"rules_disagree"}));
 }
 
 TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {

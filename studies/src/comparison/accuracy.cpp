@@ -82,6 +82,10 @@ AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direc
     if (a.normal_amplitude < normal_amplitude_min || a.normal_amplitude > normal_amplitude_max)
       a.flags.push_back("amplitude_implausible");
     if (a.exterior_used != value_or(params, "exterior", a.exterior_used)) a.flags.push_back("exterior_fallback");
+    if (value_or(params, "gradient_correction", "none") != "none") {
+      a.gradient_correction_left = value_or_nan(enriched, "gradient_correction_left");
+      if (!(a.gradient_correction_left <= gradient_correction_left_limit)) a.flags.push_back("rules_disagree");
+    }
   }
   if (previous != nullptr && previous->value("status", "") == "ok") {
     const double f = axial(json_at_path(c, {"qoi", "force_N"}), d), f_previous = axial(json_at_path(*previous, {"qoi", "force_N"}), d);
@@ -106,6 +110,7 @@ json to_json(const AccuracyIndicator& a) {
           {"mls_energy_share", json_number(a.mls_energy_share)},
           {"normal_amplitude", json_number(a.normal_amplitude)},
           {"exterior_used", a.exterior_used.empty() ? json(nullptr) : json(a.exterior_used)},
+          {"gradient_correction_left", json_number(a.gradient_correction_left)},
           {"flags", a.flags}};
 }
 

@@ -176,12 +176,21 @@ struct AccuracyIndicator {
   double mls_energy_share = std::numeric_limits<double>::quiet_NaN();
   double normal_amplitude = std::numeric_limits<double>::quiet_NaN();
   std::string exterior_used;
+  /// With corrected gradients: the part of the integration-constraint residuals the correction
+  /// could not remove (the volume and boundary rules disagree on the divergence theorem); NaN:
+  /// no correction.
+  double gradient_correction_left = std::numeric_limits<double>::quiet_NaN();
   /// "force_methods_disagree", "supports_grew", "ill_conditioned", "stiffness_implausible",
   /// "unconverged_in_n"; enriched: "mls_dominated" (the singular fields carry too little: the
   /// contact is unlike a punch on a smooth body), "amplitude_implausible", "exterior_fallback"
-  /// (body_aware was asked, the half-space was used: no organ atlas sample near the contact)
+  /// (body_aware was asked, the half-space was used: no organ atlas sample near the contact),
+  /// "rules_disagree" (with corrected gradients: the boundary rules do not close the local
+  /// domain, so the correction aims at a wrong target)
   std::vector<std::string> flags;
 };
+/// Flag "rules_disagree" above this share of the constraint residuals left uncorrected: about
+/// 1e-3 on the hemisphere's local domain, 0.1 and more when a boundary piece is missing.
+constexpr double gradient_correction_left_limit = 1e-2;
 /// Flag "mls_dominated" above this MLS share of the energy: about 0.08 on B3 at 5a.
 constexpr double mls_energy_share_limit = 0.35;
 /// Flag "amplitude_implausible" outside these bounds of the normal amplitude per metre of depth.
