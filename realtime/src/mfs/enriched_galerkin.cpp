@@ -447,9 +447,11 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
 
   using clock = std::chrono::steady_clock;
   const auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  auto step = clock::now();  // the supports and the boundary samples count in boundary_s
+  auto step = clock::now();  // the supports are grown for the volume rule's points too: count them in volume_s
   cloud.radii = enriched_support_radii(cloud.positions, {&quad.volume, &quad.patch, &quad.free_surface, &quad.cut, &quad.clamped},
                                        settings.support_neighbours, settings.min_point_neighbours);
+  const double supports_s = seconds_since(step);
+  step = clock::now();
   MlsEvaluation eval;
   static const std::vector<int> all_nodes;
   const auto evaluate = [&](const Eigen::Vector3d& x, Derivatives what) {
@@ -630,7 +632,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   }
   model.volume_points = static_cast<int>(quad.volume.points.size());
   model.mean_volume_point_nodes /= static_cast<double>(std::max(model.volume_points, 1));
-  model.volume_s = seconds_since(step);
+  model.volume_s = supports_s + seconds_since(step);
   step = clock::now();
 
   for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})

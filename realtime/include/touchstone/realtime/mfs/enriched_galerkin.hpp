@@ -163,8 +163,8 @@ struct EnrichedModel {
   /// The part of the integration-constraint residuals the gradient correction could not remove,
   /// relative to their largest (correct_gradients(); 0 without a correction).
   double gradient_correction_left = 0;
-  /// Where the build's time went [s]: the volume rule (MLS gradients, their correction, the
-  /// MLS–MLS block and the projected volumetric term), the supports and the boundary rules with
+  /// Where the build's time went [s]: the supports and the volume rule (MLS gradients, their
+  /// correction, the MLS–MLS block and the projected volumetric term), the boundary rules with
   /// the ψ blocks and the constraint rows, and the KKT solve.
   double volume_s = 0, boundary_s = 0, solve_s = 0;
   std::string status = "ok";
