@@ -7,11 +7,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 
-#include <string>
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace touchstone::realtime::mfs {
 namespace {
