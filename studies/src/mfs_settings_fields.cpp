@@ -41,7 +41,8 @@ const std::vector<Named<mfs::SolverKind>> solver_kinds{{"dense_lu", mfs::SolverK
 const std::vector<Named<mfs::VolumetricTerm>> volumetric_terms{{"auto", mfs::VolumetricTerm::automatic},
                                                                {"full", mfs::VolumetricTerm::full},
                                                                {"projected", mfs::VolumetricTerm::projected}};
-const std::vector<Named<mfs::GradientCorrection>> gradient_corrections{{"none", mfs::GradientCorrection::none},
+const std::vector<Named<mfs::GradientCorrection>> gradient_corrections{{"auto", mfs::GradientCorrection::automatic},
+                                                                       {"none", mfs::GradientCorrection::none},
                                                                        {"linear", mfs::GradientCorrection::linear}};
 // "energy" is listed so that ForceSettings::validate() can say why it is not allowed.
 const std::vector<Named<mfs::ForceMethod>> force_methods{{"traction_integral", mfs::ForceMethod::traction_integral},
@@ -87,11 +88,11 @@ std::vector<Field> make_fields() {
                       [](auto& s) -> auto& { return s.enriched.support_neighbours; }));
   f.push_back(integer({"enriched", "min_point_neighbours", "nodes", "nodes every quadrature point must see"},
                       [](auto& s) -> auto& { return s.enriched.min_point_neighbours; }));
-  f.push_back(integer({"enriched", "volume_radial_points", "points", "MLS-MLS volume quadrature, radial (N <= 40)"},
+  f.push_back(integer({"enriched", "volume_radial_points", "points", "MLS-MLS volume quadrature, radial (N <= 40; 0: 6x6x12 with corrected gradients, 8x8x16 without)"},
                       [](auto& s) -> auto& { return s.enriched.volume_radial_points; }));
-  f.push_back(integer({"enriched", "volume_polar_points", "points", "MLS-MLS volume quadrature, polar (N <= 40)"},
+  f.push_back(integer({"enriched", "volume_polar_points", "points", "MLS-MLS volume quadrature, polar (N <= 40; 0: 6x6x12 with corrected gradients, 8x8x16 without)"},
                       [](auto& s) -> auto& { return s.enriched.volume_polar_points; }));
-  f.push_back(integer({"enriched", "volume_azimuth_points", "points", "MLS-MLS volume quadrature, azimuthal (N <= 40)"},
+  f.push_back(integer({"enriched", "volume_azimuth_points", "points", "MLS-MLS volume quadrature, azimuthal (N <= 40; 0: 6x6x12 with corrected gradients, 8x8x16 without)"},
                       [](auto& s) -> auto& { return s.enriched.volume_azimuth_points; }));
   f.push_back(real({"enriched", "volume_coarse_within_tool_radii", "tool radii",
                     "volume shells this close to the contact point take half the angular counts (0: none)"},
@@ -120,7 +121,7 @@ std::vector<Field> make_fields() {
                        "the projected volumetric term's space: linear polynomials and div psi up to this many nodes, the nodes' functions beyond"},
                       [](auto& s) -> auto& { return s.enriched.volumetric_linear_space_up_to_nodes; }));
   f.push_back(choice({"enriched", "gradient_correction", "",
-                      "none or linear: MLS gradients corrected so that the volume rule integrates a linear field's weak form exactly"},
+                      "auto (linear while the volumetric term is full, none where it is projected), none or linear: MLS gradients corrected so that the volume rule integrates a linear field's weak form exactly"},
                      gradient_corrections, [](auto& s) -> auto& { return s.enriched.gradient_correction; }));
 
   f.push_back(choice({"sprinkling", "layout", "", "radial_shells, quasi_random or lattice"}, layouts,

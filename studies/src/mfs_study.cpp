@@ -165,7 +165,9 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},
           {"mean_volume_point_nodes", json_number(e.mean_volume_point_nodes)},
+          {"gradient_correction", e.gradient_correction == mfs::GradientCorrection::linear ? "linear" : "none"},
           {"gradient_correction_left", json_number(e.gradient_correction_left)},
+          {"volume_rule", json::array({e.volume_rule[0], e.volume_rule[1], e.volume_rule[2]})},
           {"boundary_points", e.boundary_points},
           {"kkt_relative_residual", json_number(e.kkt_relative_residual)}};
 }

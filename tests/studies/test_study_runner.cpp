@@ -481,6 +481,13 @@ TEST(AccuracyIndicator, EnrichedCasesAreJudgedByWhatTheEnrichmentCarries) {
   EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"rules_disagree"}));
   bad["diagnostics"]["enriched"].erase("gradient_correction_left");  // a correction that reported nothing
   EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"rules_disagree"}));
+  // The automatic choice: the case's diagnostics say what the build applied.
+  bad["params"]["gradient_correction"] = "auto";
+  bad["diagnostics"]["enriched"]["gradient_correction"] = "none";
+  EXPECT_TRUE(accuracy_indicator(bad, d).flags.empty());
+  bad["diagnostics"]["enriched"]["gradient_correction"] = "linear";
+  bad["diagnostics"]["enriched"]["gradient_correction_left"] = 0.2;
+  EXPECT_EQ(accuracy_indicator(bad, d).flags, (std::vector<std::string>{"rules_disagree"}));
 }
 
 TEST(AccuracyIndicator, FlagsDisagreeingForcesGrownSupportsAndIllConditioning) {

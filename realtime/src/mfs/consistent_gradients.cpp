@@ -64,6 +64,8 @@ double integration_constraint_violation(const std::vector<Eigen::Vector3d>& node
 
 double correct_gradients(const std::vector<Eigen::Vector3d>& nodes, const ShapeSamples& boundary,
                          GradientCorrection correction, ShapeSamples& volume) {
+  if (correction == GradientCorrection::automatic)
+    throw std::invalid_argument("correct_gradients: the correction 'automatic' must be chosen by the caller");
   if (correction == GradientCorrection::none) return 0;
   const Eigen::Index n = static_cast<Eigen::Index>(nodes.size());
   Eigen::MatrixX3d residual;

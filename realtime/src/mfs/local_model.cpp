@@ -350,20 +350,6 @@ LocalModel build_galerkin(const geometry::TriangleSurface& organ, LocalModel mod
   return model;
 }
 
-/// From this many nodes the volume rule's radial count grows too: with it fixed the MLS–MLS block
-/// and the projected volumetric term were under-integrated along the rays at 100–300 nodes (too
-/// soft by up to 0.45 % at ν = 0.45 and 1 % at ν = 0.49; docs/enriched_model.md).
-constexpr std::size_t radial_growth_from_nodes = 60;
-
-EnrichedSettings scaled_quadratures(EnrichedSettings s, std::size_t node_count) {
-  const double finer = std::cbrt(static_cast<double>(node_count) / 40.0);
-  if (finer <= 1) return s;
-  for (int* count : {&s.volume_polar_points, &s.volume_azimuth_points, &s.cut_polar_points, &s.cut_azimuth_points})
-    *count = static_cast<int>(std::lround(*count * finer));
-  if (node_count > radial_growth_from_nodes) s.volume_radial_points = static_cast<int>(std::lround(s.volume_radial_points * finer));
-  return s;
-}
-
 /// The enriched branch of build_local_model: its own even cloud, boundary quadratures, the
 /// exterior stiffness (body-aware from `exterior`, else the half-space's), one KKT solve.
 LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel model, const ClampedSurface& clamped,
@@ -378,10 +364,9 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
   auto step = std::chrono::steady_clock::now();
   const LocalSurface surface(organ, model.contact.point, 1.3 * length);
   model.cloud = sprinkle_even_nodes(surface, model.contact, settings.sprinkling.node_count, length, settings.sprinkling.seed);
-  // Finer shape functions need finer quadratures: under-integrating the MLS–MLS block, or the
-  // cut's multipliers, makes the model too soft as N grows with the counts fixed.
-  // The angular counts grow as ∛(N/40) beyond 40 nodes, the radial one beyond 60.
-  const EnrichedSettings quadrature_settings = scaled_quadratures(settings.enriched, model.cloud.size());
+  // The quadratures grow with N; the assembly takes the settings for N ≤ 40.
+  EnrichedSettings enriched = settings_for_material(settings.enriched, model.material);
+  const EnrichedSettings quadrature_settings = quadratures_for_node_count(enriched, model.cloud.size());
   EnrichedQuadratures quadratures;
   PunchFrame frame;
   std::string failure;
@@ -389,7 +374,6 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
                             clamped_inside_ball(organ, model.contact, settings, clamped), quadratures, frame, failure))
     return fail(failure);
   model.clamped_points = static_cast<int>(quadratures.clamped.points.size());
-  EnrichedSettings enriched = settings.enriched;
   Eigen::MatrixXd exterior_stiffness;
   model.exterior_used = to_string(enriched.exterior);
   if (enriched.exterior == ExteriorCondition::body_aware) {

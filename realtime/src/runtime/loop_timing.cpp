@@ -1,5 +1,6 @@
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 
+#include <malloc.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/prctl.h>
@@ -42,6 +43,15 @@ long long LatenessHistogram::count_above(double threshold_s) const noexcept {
   long long above = overflow_;
   for (long long i = std::max(0LL, first); i < bin_count; ++i) above += bins_[static_cast<std::size_t>(i)];
   return above;
+}
+
+bool keep_freed_memory_for_reuse() noexcept {
+#ifdef __GLIBC__
+  return mallopt(M_MMAP_THRESHOLD, static_cast<int>(heap_block_limit_bytes)) == 1 &&
+         mallopt(M_TRIM_THRESHOLD, static_cast<int>(heap_trim_bytes)) == 1;
+#else
+  return false;
+#endif
 }
 
 RealtimeThreadReport configure_realtime_thread(bool request_fifo, int priority) noexcept {

@@ -82,7 +82,9 @@ AccuracyIndicator accuracy_indicator(const json& c, const Eigen::Vector3d& direc
     if (a.normal_amplitude < normal_amplitude_min || a.normal_amplitude > normal_amplitude_max)
       a.flags.push_back("amplitude_implausible");
     if (a.exterior_used != value_or(params, "exterior", a.exterior_used)) a.flags.push_back("exterior_fallback");
-    if (value_or(params, "gradient_correction", "none") != "none") {
+    // What the build applied (an automatic choice is made per material); results written before
+    // the diagnostic existed name it in the params only.
+    if (enriched.value("gradient_correction", value_or(params, "gradient_correction", "none")) != "none") {
       a.gradient_correction_left = value_or_nan(enriched, "gradient_correction_left");
       if (!(a.gradient_correction_left <= gradient_correction_left_limit)) a.flags.push_back("rules_disagree");
     }

@@ -153,6 +153,8 @@ TEST(ConsistentGradients, NoneLeavesTheGradientsAndBadInputIsNamed) {
   for (std::size_t k = 0; k < volume.gradient.size(); ++k) EXPECT_EQ(volume.gradient[k], original.gradient[k]);
   ShapeSamples no_gradients = sample_boundary(c);
   EXPECT_THROW(correct_gradients(c.nodes, sample_boundary(c), GradientCorrection::linear, no_gradients), std::invalid_argument);
+  // 'automatic' is the caller's choice to make, not a correction.
+  EXPECT_THROW(correct_gradients(c.nodes, sample_boundary(c), GradientCorrection::automatic, volume), std::invalid_argument);
 }
 
 }  // namespace

@@ -4,11 +4,35 @@
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 
 #include <gtest/gtest.h>
+#include <malloc.h>
 
+#include <cstdlib>
 #include <thread>
 
 namespace touchstone::realtime::runtime {
 namespace {
+
+// After the call a block below the limit comes from the heap, not from a fresh memory map, and
+// a block above it is still mapped. 48 MB is above the largest threshold glibc's own adaptation
+// reaches (32 MB), so without the call it would be mapped: the test can fail.
+TEST(KeepFreedMemoryForReuse, BuildSizedBlocksComeFromTheHeap) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the sanitizers' allocators ignore the C library's settings";
+#endif
+  ASSERT_TRUE(keep_freed_memory_for_reuse());
+  const auto mapped_blocks = [] { return mallinfo2().hblks; };
+  const std::size_t before = mapped_blocks();
+  void* block = std::malloc(std::size_t{48} << 20);
+  ASSERT_NE(block, nullptr);
+  static_cast<volatile char*>(block)[0] = 1;  // used, so that the allocation is not elided
+  EXPECT_EQ(mapped_blocks(), before);
+  std::free(block);
+  void* large = std::malloc(heap_block_limit_bytes + (std::size_t{1} << 20));
+  ASSERT_NE(large, nullptr);
+  static_cast<volatile char*>(large)[0] = 1;
+  EXPECT_EQ(mapped_blocks(), before + 1);
+  std::free(large);
+}
 
 TEST(LatenessHistogram, QuantilesAreUpperBinEdges) {
   auto histogram = std::make_unique<LatenessHistogram>();

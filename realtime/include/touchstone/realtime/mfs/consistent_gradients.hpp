@@ -47,6 +47,9 @@ struct ShapeSamples {
 enum class GradientCorrection : unsigned char {
   none,    ///< the shape functions' own gradients
   linear,  ///< corrected to the integration constraint, affine fields reproduced exactly
+  /// chosen by the model that uses the gradients (EnrichedSettings); correct_gradients() does
+  /// not accept it
+  automatic,
 };
 
 /// The largest violation of the integration constraint over every node and component, relative
@@ -54,7 +57,8 @@ enum class GradientCorrection : unsigned char {
 double integration_constraint_violation(const std::vector<Eigen::Vector3d>& nodes, const ShapeSamples& volume,
                                         const ShapeSamples& boundary);
 
-/// Corrects volume.gradient in place (GradientCorrection::linear; none leaves it). Returns the
+/// Corrects volume.gradient in place (GradientCorrection::linear; none leaves it; automatic
+/// throws std::invalid_argument, the caller decides). Returns the
 /// part of the constraint residuals that the correction cannot remove, relative to their
 /// largest: how far the volume and boundary rules disagree on the divergence theorem of affine
 /// fields (0 for rules that agree exactly).

@@ -90,8 +90,9 @@ struct EnrichedSettings {
   /// Quadrature of the MLS–MLS block (rays from the contact point, graded toward the tool).
   /// These counts and the cut's are for N ≤ 40: build_local_model grows their angular counts as
   /// ∛(N/40) beyond, and the radial count in the same proportion beyond 60 nodes (finer shape
-  /// functions need finer quadratures).
-  int volume_radial_points = 8, volume_polar_points = 8, volume_azimuth_points = 16;
+  /// functions need finer quadratures). 0 picks the count by the gradient correction
+  /// (settings_for_material()): 6 × 6 × 12 with corrected gradients, 8 × 8 × 16 without.
+  int volume_radial_points = 0, volume_polar_points = 0, volume_azimuth_points = 0;
   /// The volume rule's shells within this many tool radii of the contact point (on a ray of
   /// full length L) take half the polar and azimuthal counts; 0: every shell takes the full
   /// counts. Coarsening further out costs accuracy (docs/enriched_model.md, "The inner shells
@@ -116,10 +117,31 @@ struct EnrichedSettings {
   int volumetric_linear_space_up_to_nodes = 60;
   /// Correct the MLS gradients on the volume rule to its integration constraints
   /// (consistent_gradients.hpp), so that a coarser volume rule keeps the model's accuracy.
-  GradientCorrection gradient_correction = GradientCorrection::none;
+  /// automatic: linear while the MLS part's volumetric term is integrated in full, none where it
+  /// is projected (near incompressibility the coarse corrected rule misses the displacement
+  /// target, and the finer uncorrected one meets it; docs/enriched_model.md).
+  GradientCorrection gradient_correction = GradientCorrection::automatic;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
+
+/// The volume rule's counts (radial, polar, azimuthal, for N ≤ 40) that a count of 0 picks.
+constexpr int corrected_volume_rule[3] = {6, 6, 12};
+constexpr int uncorrected_volume_rule[3] = {8, 8, 16};
+
+/// Whether the MLS part's volumetric term is projected for this material (VolumetricTerm).
+bool volumetric_term_projected(const EnrichedSettings& settings, const geometry::Material& material);
+
+/// The settings a build uses for `material`: the automatic choices made (the volumetric term,
+/// the gradient correction, and the volume rule's counts left at 0). enriched_quadratures() and
+/// build_enriched_model() take only settings made this way.
+EnrichedSettings settings_for_material(EnrichedSettings settings, const geometry::Material& material);
+
+/// The quadrature counts for a cloud of node_count nodes: finer shape functions need finer
+/// quadratures (under-integrating the MLS–MLS block, or the cut's multipliers, makes the model
+/// too soft as N grows with the counts fixed), so the volume rule's and the cut's angular counts
+/// grow as ∛(N/40) beyond 40 nodes, and the volume rule's radial count beyond 60.
+EnrichedSettings quadratures_for_node_count(EnrichedSettings settings, std::size_t node_count);
 
 /// The boundary pieces of the local domain Ω = organ ∩ ball(c, L), with per-point data the
 /// multipliers need. Patch and free surface are parametrised by the distance r from the tool
@@ -163,6 +185,9 @@ struct EnrichedModel {
   /// The part of the integration-constraint residuals the gradient correction could not remove,
   /// relative to their largest (correct_gradients(); 0 without a correction).
   double gradient_correction_left = 0;
+  /// The correction the build applied (none or linear) and its volume rule's counts for N ≤ 40.
+  GradientCorrection gradient_correction = GradientCorrection::none;
+  int volume_rule[3] = {0, 0, 0};
   /// Where the build's time went [s]: the supports and the volume rule (MLS gradients, their
   /// correction, the MLS–MLS block and the projected volumetric term), the boundary rules with
   /// the ψ blocks and the constraint rows, and the KKT solve.

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -64,6 +65,20 @@ struct RealtimeThreadReport {
 /// Asks for SCHED_FIFO at `priority` (when `request_fifo`) and the smallest timer slack for the
 /// calling thread. Never throws; a refusal is reported, not fatal.
 RealtimeThreadReport configure_realtime_thread(bool request_fifo, int priority) noexcept;
+
+/// Heap blocks up to this size come from the heap, not from fresh memory maps, and freed
+/// memory is kept for reuse up to the trim size (keep_freed_memory_for_reuse()).
+constexpr std::size_t heap_block_limit_bytes = std::size_t{64} << 20;
+constexpr std::size_t heap_trim_bytes = std::size_t{256} << 20;
+
+/// Makes the C library keep freed heap memory for reuse (glibc: blocks below
+/// heap_block_limit_bytes are not memory-mapped, and the heap is not trimmed until
+/// heap_trim_bytes are free at its top). A local model build allocates and frees its matrices
+/// every time; with the library's adaptive defaults those blocks were mapped and returned again
+/// and again, and each build paid the page faults of memory it had just freed (a build at 60
+/// nodes took about twice as long after builds at 34). Process-wide: call once at start-up,
+/// before any thread starts. False where the C library offers no such control.
+bool keep_freed_memory_for_reuse() noexcept;
 
 /// Periodic deadlines on the monotonic clock. wait() sleeps until `spin_tail` before the next
 /// deadline, then spins to it; if the caller overran one or more deadlines it does not burst to
