@@ -287,8 +287,8 @@ EnrichedSettings settings_for_material(EnrichedSettings s, const geometry::Mater
 }
 
 /// From this many nodes the volume rule's radial count grows too: with it fixed the MLS–MLS block
-/// and the projected volumetric term were under-integrated along the rays at 100–300 nodes (too
-/// soft by up to 0.45 % at ν = 0.45 and 1 % at ν = 0.49; docs/enriched_model.md).
+/// and the projected volumetric term were under-integrated along the rays at 100–300 nodes, too
+/// soft (docs/enriched_model.md, "The radial count at large N").
 constexpr std::size_t radial_growth_from_nodes = 60;
 
 EnrichedSettings quadratures_for_node_count(EnrichedSettings s, std::size_t node_count) {

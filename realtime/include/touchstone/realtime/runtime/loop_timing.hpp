@@ -75,9 +75,9 @@ constexpr std::size_t heap_trim_bytes = std::size_t{256} << 20;
 /// heap_block_limit_bytes are not memory-mapped, and the heap is not trimmed until
 /// heap_trim_bytes are free at its top). A local model build allocates and frees its matrices
 /// every time; with the library's adaptive defaults those blocks were mapped and returned again
-/// and again, and each build paid the page faults of memory it had just freed (a build at 60
-/// nodes took about twice as long after builds at 34). Process-wide: call once at start-up,
-/// before any thread starts. False where the C library offers no such control.
+/// and again, and each build paid the page faults of memory it had just freed (README, "Freed
+/// memory is kept for reuse"). Process-wide: call once at start-up, before any thread starts.
+/// False where the C library offers no such control.
 bool keep_freed_memory_for_reuse() noexcept;
 
 /// Periodic deadlines on the monotonic clock. wait() sleeps until `spin_tail` before the next
