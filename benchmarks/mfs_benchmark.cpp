@@ -346,16 +346,20 @@ LocalModelSettings enriched_uncorrected(const benchmark::State& state) {
   return settings;
 }
 
-/// The uncorrected gradients on the finer 8 × 8 × 16 rule (grown with N as the default's): the
-/// default where the volumetric term is projected, and the model the correction replaces below.
+/// The uncorrected gradients on the finer 8 × 8 × 16 rule and the 8 × 16 cut rule (grown with N
+/// as the default's): the default where the volumetric term is projected, and the model the
+/// correction replaces below.
 void BM_BuildEnrichedUncorrectedFineRule(benchmark::State& state) { build(state, enriched_uncorrected(state)); }
 
-/// The default's 6 × 6 × 12 rule without the correction: what the correction itself costs.
+/// The default's 6 × 6 × 12 volume and 6 × 12 cut rules without the correction: what the
+/// correction itself costs.
 void BM_BuildEnrichedCoarseRule(benchmark::State& state) {
   LocalModelSettings settings = enriched_uncorrected(state);
   settings.enriched.volume_radial_points = 6;
   settings.enriched.volume_polar_points = 6;
   settings.enriched.volume_azimuth_points = 12;
+  settings.enriched.cut_polar_points = 6;
+  settings.enriched.cut_azimuth_points = 12;
   build(state, settings);
 }
 

@@ -105,9 +105,9 @@ std::vector<Field> make_fields() {
                       [](auto& s) -> auto& { return s.enriched.free_radial_points; }));
   f.push_back(integer({"enriched", "free_azimuth_points", "points", "free-surface quadrature, azimuthal"},
                       [](auto& s) -> auto& { return s.enriched.free_azimuth_points; }));
-  f.push_back(integer({"enriched", "cut_polar_points", "points", "cut-sphere quadrature, polar (N <= 40)"},
+  f.push_back(integer({"enriched", "cut_polar_points", "points", "cut-sphere quadrature, polar (N <= 40; 0: 6 with corrected gradients, 8 without)"},
                       [](auto& s) -> auto& { return s.enriched.cut_polar_points; }));
-  f.push_back(integer({"enriched", "cut_azimuth_points", "points", "cut-sphere quadrature, azimuthal (N <= 40)"},
+  f.push_back(integer({"enriched", "cut_azimuth_points", "points", "cut-sphere quadrature, azimuthal (N <= 40; 0: 12 with corrected gradients, 16 without)"},
                       [](auto& s) -> auto& { return s.enriched.cut_azimuth_points; }));
   f.push_back(integer({"enriched", "cut_multiplier_degree", "", "polynomial degree of the cut's multipliers (-1: from N)"},
                       [](auto& s) -> auto& { return s.enriched.cut_multiplier_degree; }));

@@ -168,6 +168,7 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"gradient_correction", e.gradient_correction == mfs::GradientCorrection::linear ? "linear" : "none"},
           {"gradient_correction_left", json_number(e.gradient_correction_left)},
           {"volume_rule", json::array({e.volume_rule[0], e.volume_rule[1], e.volume_rule[2]})},
+          {"cut_rule", json::array({e.cut_rule[0], e.cut_rule[1]})},
           {"boundary_points", e.boundary_points},
           {"kkt_relative_residual", json_number(e.kkt_relative_residual)}};
 }

@@ -89,7 +89,11 @@ double correct_gradients(const std::vector<Eigen::Vector3d>& nodes, const ShapeS
   // batches of consecutive points over the union of their nodes (one dense rank update each).
   Eigen::MatrixXd system = Eigen::MatrixXd::Zero(n, n);
   std::vector<double> basis(4 * volume.node.size());  // Q_q row by row, at 4 × the point's offset
+  // A batch closes at 32 points, or before a point would take the union of nodes past twice
+  // the widest point's set: on large clouds a union of every node made each product dense.
   constexpr int batch_points = 32;
+  constexpr double max_union_growth = 2.0;
+  int batch_widest = 0;
   std::vector<int> slot(static_cast<std::size_t>(n), -1), union_nodes;
   Eigen::MatrixXd batch, batch_gram;
   std::size_t batch_first = 0;
@@ -115,17 +119,25 @@ double correct_gradients(const std::vector<Eigen::Vector3d>& nodes, const ShapeS
     for (int node : union_nodes) slot[static_cast<std::size_t>(node)] = -1;
     union_nodes.clear();
     batch_first = end;
+    batch_widest = 0;
   };
   for (std::size_t q = 0; q < volume.size(); ++q) {
-    if (q - batch_first == batch_points) flush(q);
     const int first = volume.offset[q], k = volume.offset[q + 1] - first;
+    int fresh = 0;
+    for (int a = 0; a < k; ++a) fresh += slot[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] < 0 ? 1 : 0;
+    if (q - batch_first == batch_points ||
+        (q > batch_first && static_cast<double>(union_nodes.size() + static_cast<std::size_t>(fresh)) > max_union_growth * std::max(batch_widest, k)))
+      flush(q);
+    batch_widest = std::max(batch_widest, k);
+    // The 4 × 4 moments as whole outer products: a fixed-size product vectorises, a rank update
+    // of a self-adjoint view of this size does not.
     Eigen::Matrix4d moments = Eigen::Matrix4d::Zero();
     Eigen::Vector4d e;
     for (int a = 0; a < k; ++a) {
       e << 1, scale * (nodes[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] - volume.points[q]);
-      moments.selfadjointView<Eigen::Lower>().rankUpdate(e);
+      moments.noalias() += e * e.transpose();
     }
-    const Eigen::LLT<Eigen::Matrix4d> cholesky(moments.selfadjointView<Eigen::Lower>());
+    const Eigen::LLT<Eigen::Matrix4d> cholesky(moments);
     if (cholesky.info() != Eigen::Success)
       throw std::invalid_argument("consistent gradients: the nodes seen at volume point " + std::to_string(q) +
                                   " do not span the affine fields");

@@ -226,8 +226,8 @@ void EnrichedSettings::validate() const {
   check("patch_angular_points", patch_angular_points, 4, 256);
   check("free_radial_points", free_radial_points, 2, 64);
   check("free_azimuth_points", free_azimuth_points, 4, 256);
-  check("cut_polar_points", cut_polar_points, 2, 64);
-  check("cut_azimuth_points", cut_azimuth_points, 4, 256);
+  check_rule("cut_polar_points", cut_polar_points, 2, 64);
+  check_rule("cut_azimuth_points", cut_azimuth_points, 4, 256);
   check("cut_multiplier_degree", cut_multiplier_degree, -1, 4);
   check("bonded_patch_dome_from_nodes", bonded_patch_dome_from_nodes, 0, 1000000);
   check("volumetric_linear_space_up_to_nodes", volumetric_linear_space_up_to_nodes, 0, 1000000);
@@ -249,21 +249,38 @@ std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& n
   // point is judged against the k-nearest radii, not against the growth of the points before
   // it: the supports must not depend on the order in which the quadrature rules list their
   // points (docs/enriched_model.md, "Supports that do not depend on the point order").
-  // Most points see enough nodes: they are counted on squared distances, and only the others
-  // pay for the square roots and the partial sort.
+  // Most points see enough nodes: they are counted on squared distances, over coordinates held
+  // as separate arrays so that the count vectorises; only the others look for their nearest
+  // nodes, and only those pay for a square root.
   const std::size_t need = std::min<std::size_t>(static_cast<std::size_t>(min_neighbours), n);
-  std::vector<double> nearest_radii_squared(n);
-  for (std::size_t j = 0; j < n; ++j) nearest_radii_squared[j] = radii[j] * radii[j];
-  std::vector<std::pair<double, std::size_t>> nearest(n);
+  std::vector<double> nearest_radii_squared(n), node_x(n), node_y(n), node_z(n), squared(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    nearest_radii_squared[j] = radii[j] * radii[j];
+    node_x[j] = nodes[j].x(), node_y[j] = nodes[j].y(), node_z[j] = nodes[j].z();
+  }
+  std::vector<double> nearest(need);  // the need smallest squared distances, ascending
   for (const PatchQuadrature* set : points)
     for (const Eigen::Vector3d& x : set->points) {
       std::size_t seen = 0;
-      for (std::size_t j = 0; j < n; ++j) seen += (nodes[j] - x).squaredNorm() < nearest_radii_squared[j] ? 1 : 0;
+      for (std::size_t j = 0; j < n; ++j) {
+        const double dx = node_x[j] - x.x(), dy = node_y[j] - x.y(), dz = node_z[j] - x.z();
+        squared[j] = dx * dx + dy * dy + dz * dz;
+        seen += squared[j] < nearest_radii_squared[j] ? 1 : 0;
+      }
       if (seen >= need) continue;
-      for (std::size_t j = 0; j < n; ++j) nearest[j] = {(nodes[j] - x).norm(), j};
-      std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(need - 1), nearest.end());
-      for (std::size_t i = 0; i < need; ++i)
-        radii[nearest[i].second] = std::max(radii[nearest[i].second], 1.2 * nearest[i].first);
+      // The need-th smallest squared distance by insertion into a short sorted list (most
+      // nodes fail the first comparison), then every node within it (a tie at that distance
+      // grows one node more).
+      std::fill(nearest.begin(), nearest.end(), std::numeric_limits<double>::infinity());
+      for (std::size_t j = 0; j < n; ++j) {
+        if (!(squared[j] < nearest[need - 1])) continue;
+        std::size_t at = need - 1;
+        for (; at > 0 && nearest[at - 1] > squared[j]; --at) nearest[at] = nearest[at - 1];
+        nearest[at] = squared[j];
+      }
+      const double within = nearest[need - 1];
+      for (std::size_t j = 0; j < n; ++j)
+        if (squared[j] <= within) radii[j] = std::max(radii[j], 1.2 * std::sqrt(squared[j]));
     }
   return radii;
 }
@@ -283,6 +300,9 @@ EnrichedSettings settings_for_material(EnrichedSettings s, const geometry::Mater
   int* counts[3] = {&s.volume_radial_points, &s.volume_polar_points, &s.volume_azimuth_points};
   for (int i = 0; i < 3; ++i)
     if (*counts[i] == 0) *counts[i] = rule[i];
+  const int* cut_rule = s.gradient_correction == GradientCorrection::none ? uncorrected_cut_rule : corrected_cut_rule;
+  if (s.cut_polar_points == 0) s.cut_polar_points = cut_rule[0];
+  if (s.cut_azimuth_points == 0) s.cut_azimuth_points = cut_rule[1];
   return s;
 }
 
@@ -305,6 +325,7 @@ namespace {
 /// settings; a caller that skips it would build on an empty rule.
 void require_chosen(const EnrichedSettings& s, const char* caller) {
   if (s.volume_radial_points == 0 || s.volume_polar_points == 0 || s.volume_azimuth_points == 0 ||
+      s.cut_polar_points == 0 || s.cut_azimuth_points == 0 ||
       s.gradient_correction == GradientCorrection::automatic || s.volumetric == VolumetricTerm::automatic)
     throw std::invalid_argument(std::string(caller) + ": the settings' automatic choices are not made (settings_for_material)");
 }
@@ -481,6 +502,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   model.volume_rule[0] = settings.volume_radial_points;
   model.volume_rule[1] = settings.volume_polar_points;
   model.volume_rule[2] = settings.volume_azimuth_points;
+  model.cut_rule[0] = settings.cut_polar_points;
+  model.cut_rule[1] = settings.cut_azimuth_points;
   model.modes = enrichment_modes(contact, frame);
   const bool bonded = contact.condition == geometry::ContactCondition::bonded;
   const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
@@ -862,7 +885,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const double rho = k_scale > 0 ? 1 / k_scale : 1.0;
   Eigen::MatrixXd augmented = K;
   augmented.selfadjointView<Eigen::Lower>().rankUpdate(constraints.transpose(), rho);
-  const Eigen::LLT<Eigen::MatrixXd> cholesky(augmented.selfadjointView<Eigen::Lower>());
+  // Factorised in place from its lower triangle (no symmetric copy of the n × n matrix).
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> cholesky(augmented);
   if (cholesky.info() != Eigen::Success)
     return fail("the enriched system is singular: the constraints leave a zero-energy mode free");
   const Eigen::MatrixXd z = cholesky.solve(constraints.transpose());

@@ -64,12 +64,19 @@ void GradientGram::flush() {
       for (int i = 0; i < 3; ++i) local_gradients_(i * u + s, p) = g[k](i);
     }
   }
-  local_gram_.setZero(3 * u, 3 * u);
+  // Only the lower triangle is read: zero only it (the whole square was most of the time in
+  // memset on large clouds).
+  local_gram_.resize(3 * u, 3 * u);
+  local_gram_.triangularView<Eigen::Lower>().setZero();
   local_gram_.selfadjointView<Eigen::Lower>().rankUpdate(local_gradients_);
+  // Each local row's global row, once per batch rather than a division per entry.
+  global_row_.resize(static_cast<std::size_t>(3 * u));
+  for (int r = 0; r < 3 * u; ++r)
+    global_row_[static_cast<std::size_t>(r)] = (r / u) * node_count_ + union_nodes_[static_cast<std::size_t>(r % u)];
   for (int c = 0; c < 3 * u; ++c) {
-    const Eigen::Index gc = (c / u) * node_count_ + union_nodes_[static_cast<std::size_t>(c % u)];
-    for (int r = c; r < 3 * u; ++r)
-      gram_lower_((r / u) * node_count_ + union_nodes_[static_cast<std::size_t>(r % u)], gc) += local_gram_(r, c);
+    double* column = gram_lower_.col(global_row_[static_cast<std::size_t>(c)]).data();
+    const double* local = local_gram_.col(c).data();
+    for (int r = c; r < 3 * u; ++r) column[global_row_[static_cast<std::size_t>(r)]] += local[r];
   }
   for (int node : union_nodes_) slot_[static_cast<std::size_t>(node)] = -1;
   union_nodes_.clear();
@@ -79,24 +86,30 @@ void GradientGram::flush() {
 
 Eigen::MatrixXd GradientGram::gram() {
   flush();
-  Eigen::MatrixXd full = gram_lower_.selfadjointView<Eigen::Lower>();
-  return full;
+  gram_lower_.triangularView<Eigen::StrictlyUpper>() = gram_lower_.transpose();
+  return gram_lower_;
 }
 
 void GradientGram::add_isotropic_stiffness(double lambda_Pa, double mu_Pa, Eigen::MatrixXd& stiffness) {
-  const Eigen::MatrixXd a = gram();
   const Eigen::Index n = node_count_;
   if (stiffness.rows() < 3 * n || stiffness.cols() < 3 * n)
     throw std::invalid_argument("GradientGram: the stiffness matrix is smaller than 3 × node_count");
+  flush();
+  // A made symmetric in place (no second 3N × 3N matrix), then K's 3 × 3 block of each node
+  // pair read from it column by column.
+  gram_lower_.triangularView<Eigen::StrictlyUpper>() = gram_lower_.transpose();
+  const Eigen::MatrixXd& a = gram_lower_;
   const Eigen::MatrixXd trace = a.topLeftCorner(n, n) + a.block(n, n, n, n) + a.bottomRightCorner(n, n);
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (Eigen::Index b = 0; b < n; ++b)
-        for (Eigen::Index r = 0; r < n; ++r) {
+  for (Eigen::Index b = 0; b < n; ++b)
+    for (int j = 0; j < 3; ++j) {
+      double* column = stiffness.col(3 * b + j).data();
+      for (Eigen::Index r = 0; r < n; ++r)
+        for (int i = 0; i < 3; ++i) {
           double v = lambda_Pa * a(i * n + r, j * n + b) + mu_Pa * a(j * n + r, i * n + b);
           if (i == j) v += mu_Pa * trace(r, b);
-          stiffness(3 * r + i, 3 * b + j) += v;
+          column[3 * r + i] += v;
         }
+    }
 }
 
 std::vector<int> sort_points_spatially(const std::vector<Eigen::Vector3d>& points, double cell_m) {

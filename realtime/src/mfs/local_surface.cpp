@@ -84,7 +84,7 @@ bool LocalSurface::fit(const geometry::TriangleSurface& organ, double reach_m) {
     for (int t = 0; t < terms; ++t) a(static_cast<Eigen::Index>(k), t) = row[t];
     b[static_cast<Eigen::Index>(k)] = local[k].z();
   }
-  const Eigen::VectorXd scaled = a.colPivHouseholderQr().solve(b);
+  const Eigen::VectorXd scaled = a.householderQr().solve(b);
   residual_m_ = (a * scaled - b).cwiseAbs().maxCoeff();
   if (!scaled.allFinite() || !(residual_m_ < 1e-3 * reach_m)) {
     residual_m_ = 0;

@@ -115,25 +115,26 @@ void clear_outputs(MlsEvaluation& result) noexcept {
 template <int M>
 bool invert_spd(const Eigen::Matrix<double, M, M>& a, Eigen::Matrix<double, M, M>& inverse) noexcept {
   double l[M][M] = {};
+  double l_inv[M][M] = {};  // L⁻¹, lower triangular; its diagonal comes with the factorisation
   for (int j = 0; j < M; ++j) {
     double pivot = a(j, j);
     for (int k = 0; k < j; ++k) pivot -= l[j][k] * l[j][k];
     if (!(pivot > 0.0)) return false;
     l[j][j] = std::sqrt(pivot);
-    const double inv_pivot = 1.0 / l[j][j];
+    const double inv_pivot = l_inv[j][j] = 1.0 / l[j][j];
     for (int i = j + 1; i < M; ++i) {
       double v = a(i, j);
       for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
       l[i][j] = v * inv_pivot;
     }
   }
-  double l_inv[M][M] = {};  // lower triangular
+  // Products with the diagonal's reciprocals, not a division per entry (the divider set the
+  // pace of the whole evaluation).
   for (int j = 0; j < M; ++j) {
-    l_inv[j][j] = 1.0 / l[j][j];
     for (int i = j + 1; i < M; ++i) {
       double v = 0.0;
       for (int k = j; k < i; ++k) v -= l[i][k] * l_inv[k][j];
-      l_inv[i][j] = v / l[i][i];
+      l_inv[i][j] = v * l_inv[i][i];
     }
   }
   for (int j = 0; j < M; ++j) {

@@ -101,7 +101,10 @@ struct EnrichedSettings {
   /// Boundary quadratures of every ψ term and of the multipliers.
   int patch_radial_points = 6, patch_angular_points = 12;
   int free_radial_points = 6, free_azimuth_points = 16;
-  int cut_polar_points = 8, cut_azimuth_points = 16;
+  /// The cut sphere's rule (polar, azimuthal; N ≤ 40). 0 picks it like the volume rule: 6 × 12
+  /// with corrected gradients, 8 × 16 without (near incompressibility the coarser cut rule
+  /// softens the projected model past 1 % at 60 nodes; docs/enriched_model.md, "The cut rule").
+  int cut_polar_points = 0, cut_azimuth_points = 0;
   /// Degree of the polynomial multipliers on the cut (per component, plus σ(ψ_m)n); −1 picks it
   /// from N (cut_multiplier_degree()).
   int cut_multiplier_degree = -1;
@@ -125,15 +128,18 @@ struct EnrichedSettings {
   void validate() const;
 };
 
-/// The volume rule's counts (radial, polar, azimuthal, for N ≤ 40) that a count of 0 picks.
+/// The volume rule's counts (radial, polar, azimuthal) and the cut's (polar, azimuthal), for
+/// N ≤ 40, that a count of 0 picks.
 constexpr int corrected_volume_rule[3] = {6, 6, 12};
 constexpr int uncorrected_volume_rule[3] = {8, 8, 16};
+constexpr int corrected_cut_rule[2] = {6, 12};
+constexpr int uncorrected_cut_rule[2] = {8, 16};
 
 /// Whether the MLS part's volumetric term is projected for this material (VolumetricTerm).
 bool volumetric_term_projected(const EnrichedSettings& settings, const geometry::Material& material);
 
 /// The settings a build uses for `material`: the automatic choices made (the volumetric term,
-/// the gradient correction, and the volume rule's counts left at 0). enriched_quadratures() and
+/// the gradient correction, and the volume and cut rules' counts left at 0). enriched_quadratures() and
 /// build_enriched_model() take only settings made this way.
 EnrichedSettings settings_for_material(EnrichedSettings settings, const geometry::Material& material);
 
@@ -185,9 +191,11 @@ struct EnrichedModel {
   /// The part of the integration-constraint residuals the gradient correction could not remove,
   /// relative to their largest (correct_gradients(); 0 without a correction).
   double gradient_correction_left = 0;
-  /// The correction the build applied (none or linear) and its volume rule's counts for N ≤ 40.
+  /// The correction the build applied (none or linear), and its volume and cut rules' counts
+  /// for N ≤ 40.
   GradientCorrection gradient_correction = GradientCorrection::none;
   int volume_rule[3] = {0, 0, 0};
+  int cut_rule[2] = {0, 0};
   /// Where the build's time went [s]: the supports and the volume rule (MLS gradients, their
   /// correction, the MLS–MLS block and the projected volumetric term), the boundary rules with
   /// the ψ blocks and the constraint rows, and the KKT solve.
