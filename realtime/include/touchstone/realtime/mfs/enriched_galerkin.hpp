@@ -103,7 +103,7 @@ struct EnrichedSettings {
   int free_radial_points = 6, free_azimuth_points = 16;
   /// The cut sphere's rule (polar, azimuthal; N ≤ 40). 0 picks it like the volume rule: 6 × 12
   /// with corrected gradients, 8 × 16 without (near incompressibility the coarser cut rule
-  /// softens the projected model past 1 % at 60 nodes; docs/enriched_model.md, "The cut rule").
+  /// softens the projected model past the force target; docs/enriched_model.md, "The cut rule").
   int cut_polar_points = 0, cut_azimuth_points = 0;
   /// Degree of the polynomial multipliers on the cut (per component, plus σ(ψ_m)n); −1 picks it
   /// from N (cut_multiplier_degree()).
