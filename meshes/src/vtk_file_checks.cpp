@@ -259,7 +259,13 @@ class CompressedBlockCounts {
     } else if (tag.find("\"appended\"") != std::string::npos || tag.find("'appended'") != std::string::npos) {
       // VTK reads an offset that is not a number as 0, and the header there is another array's.
       const std::size_t at = tag.find(" offset=");
-      const std::string given = at == std::string::npos ? "" : tag.substr(at + 9, tag.find_first_of("\"'", at + 9) - at - 9);
+      std::string given;
+      if (at != std::string::npos) {
+        // The value after its opening quote; the tag may end right after "offset=".
+        std::size_t begin = at + 8;
+        if (begin < tag.size() && (tag[begin] == '"' || tag[begin] == '\'')) ++begin;
+        given = tag.substr(begin, tag.find_first_of("\"'", begin) - begin);
+      }
       fail(path_, "corrupt file: an appended compressed DataArray of piece " + std::to_string(piece) +
                       (at == std::string::npos ? " has no offset" : " has offset '" + given + "'") +
                       ", not a byte offset into the appended data");

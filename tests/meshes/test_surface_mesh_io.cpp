@@ -633,6 +633,32 @@ TEST(SurfaceMeshIo, BinaryStlCountIsCheckedBeforeVtkAllocates) {
 #endif
 }
 
+// An appended compressed DataArray whose tag ends right after "offset=" (a mutation the fuzzer
+// found: reading the value past the tag's end threw std::out_of_range) is a named error.
+TEST(SurfaceMeshIo, AnAppendedArrayWithAnEmptyOffsetFailsClearly) {
+  const TemporaryDirectory directory("surface_io");
+  const TriangleMeshData mesh = sphere();
+  write_surface_mesh(directory.path("plain.vtp"), mesh.vertices, mesh.triangles);
+  vtkNew<vtkXMLPolyDataReader> plain;
+  plain->SetFileName(directory.path("plain.vtp").c_str());
+  plain->Update();
+  const std::string path = directory.path("appended.vtp");
+  vtkNew<vtkXMLPolyDataWriter> writer;
+  writer->SetInputData(plain->GetOutput());
+  writer->SetFileName(path.c_str());
+  writer->SetCompressorTypeToZLib();
+  writer->SetDataMode(vtkXMLWriter::Appended);
+  ASSERT_EQ(writer->Write(), 1);
+  std::string bytes = read_file(path);
+  const std::size_t offset = bytes.find(" offset=\"");
+  ASSERT_NE(offset, std::string::npos);
+  const std::size_t tag_end = bytes.find('>', offset);
+  bytes.replace(offset, tag_end - offset, " offset=");
+  const std::string corrupt = directory.file("empty_offset.vtp", bytes);
+  expect_invalid_argument([&] { read_surface_mesh(corrupt); },
+                          {corrupt, "has offset '', not a byte offset into the appended data"});
+}
+
 // Compressed VTK XML files (zlib, as ParaView writes them) inline, appended raw and appended
 // base64 read like uncompressed ones; a corrupt block count in any of them is refused before VTK
 // allocates a size per claimed block.
