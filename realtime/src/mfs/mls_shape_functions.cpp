@@ -44,7 +44,7 @@ struct WeightTerms {
 constexpr double gaussian_alpha = 0.4;
 const double gaussian_tail = std::exp(-1.0 / (gaussian_alpha * gaussian_alpha));
 
-WeightTerms weight_terms(Weight weight, double s) noexcept {
+[[gnu::always_inline]] inline WeightTerms weight_terms(Weight weight, double s) noexcept {
   if (!(s < 1.0)) {
     return {};
   }
@@ -193,11 +193,14 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
       return MlsStatus::non_finite_input;
     }
     const Eigen::Vector3d delta = positions[j] - x;
-    const double d = delta.norm();
     const double r = radius_scale * radii[j];
-    if (!(d < r)) {
+    // Most candidates outside the support are turned away on the squared distance, without a
+    // square root.
+    const double d_squared = delta.squaredNorm();
+    if (!(d_squared < r * r)) {
       continue;
     }
+    const double d = std::sqrt(d_squared);
     const WeightTerms wt = weight_terms(settings.weight, d / r);
     if (!(wt.w > 0.0)) {
       continue;
