@@ -534,14 +534,32 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
                                        settings.support_neighbours, settings.min_point_neighbours);
   const double supports_s = seconds_since(step);
   step = clock::now();
-  MlsEvaluation eval;
-  static const std::vector<int> all_nodes;
-  const auto evaluate = [&](const Eigen::Vector3d& x, Derivatives what) {
-    evaluate_mls(x, cloud.positions, cloud.radii, all_nodes, mls, what, eval);
-    ++model.mls_evaluations;
-    if (eval.status != MlsStatus::ok) return false;
-    model.min_rcond = std::min(model.min_rcond, eval.rcond);
-    model.max_support_scale = std::max(model.max_support_scale, eval.support_scale);
+  // The shape functions at the points of a rule, four at a time (evaluate_mls_batch runs four
+  // nearby points side by side), handed to `use` in the order given; false at the first point
+  // where they fail, whose index and evaluation are left in failed_point and `failed`.
+  MlsEvaluation four[4];
+  const MlsEvaluation* failed = nullptr;
+  int failed_point = -1;
+  const auto evaluate_in_fours = [&](const std::vector<Eigen::Vector3d>& points, const std::vector<int>& order,
+                                     Derivatives what, const auto& use) {
+    Eigen::Vector3d x[4];
+    for (std::size_t first = 0; first < order.size(); first += 4) {
+      const int count = static_cast<int>(std::min<std::size_t>(4, order.size() - first));
+      for (int k = 0; k < count; ++k) x[k] = points[static_cast<std::size_t>(order[first + static_cast<std::size_t>(k)])];
+      evaluate_mls_batch(x, count, cloud.positions, cloud.radii, mls, what, four);
+      for (int k = 0; k < count; ++k) {
+        const MlsEvaluation& eval = four[k];
+        ++model.mls_evaluations;
+        if (eval.status != MlsStatus::ok) {
+          failed = &eval;
+          failed_point = order[first + static_cast<std::size_t>(k)];
+          return false;
+        }
+        model.min_rcond = std::min(model.min_rcond, eval.rcond);
+        model.max_support_scale = std::max(model.max_support_scale, eval.support_scale);
+        use(order[first + static_cast<std::size_t>(k)], eval);
+      }
+    }
     return true;
   };
 
@@ -556,18 +574,20 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   };
   const auto sample_set = [&](const PatchQuadrature& set, const char* name, std::vector<BoundaryPoint>& points) {
     points.resize(set.points.size());
-    for (std::size_t q = 0; q < set.points.size(); ++q) {
-      if (!evaluate(set.points[q], Derivatives::values))
-        throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(q));
-      BoundaryPoint& b = points[q];
+    std::vector<int> in_order(set.points.size());
+    std::iota(in_order.begin(), in_order.end(), 0);
+    const bool sampled = evaluate_in_fours(set.points, in_order, Derivatives::values, [&](int q, const MlsEvaluation& eval) {
+      BoundaryPoint& b = points[static_cast<std::size_t>(q)];
       b.nodes = eval.neighbours;
       b.values = eval.value;
-      b.x = set.points[q];
-      b.normal = set.normals[q];
-      b.weight = set.weights[q];
+      b.x = set.points[static_cast<std::size_t>(q)];
+      b.normal = set.normals[static_cast<std::size_t>(q)];
+      b.weight = set.weights[static_cast<std::size_t>(q)];
       b.psi.resize(model.modes.size());
       for (std::size_t i = 0; i < model.modes.size(); ++i) b.psi[i] = punch_field(model.modes[i], frame, a, material, b.x);
-    }
+    });
+    if (!sampled)
+      throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(failed_point));
   };
   std::vector<BoundaryPoint> patch, free_surface, cut, clamped;
   try {
@@ -652,21 +672,23 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   };
   const bool corrected = settings.gradient_correction != GradientCorrection::none;
   ShapeSamples volume;
-  for (const int q : sort_points_spatially(quad.volume.points, 0.5 * mean_radius)) {
-    const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
-    const double w = quad.volume.weights[static_cast<std::size_t>(q)];
-    if (!evaluate(x, Derivatives::gradients))
-      return fail("shape functions failed (" + std::string(eval.status == MlsStatus::too_few_nodes ? "too few nodes"
-                                                           : eval.status == MlsStatus::singular_moments
-                                                               ? "singular moment matrix"
-                                                               : "non-finite input") +
-                  ", " + std::to_string(eval.neighbours.size()) + " nodes in reach) at volume quadrature point " +
-                  std::to_string(q));
-    if (corrected)
-      volume.add(x, Eigen::Vector3d::Zero(), w, eval.neighbours, eval.value, &eval.gradient);
-    else
-      use_point(x, w, eval.neighbours.data(), eval.value.data(), eval.gradient.data(), static_cast<int>(eval.neighbours.size()));
-  }
+  const bool volume_sampled = evaluate_in_fours(
+      quad.volume.points, sort_points_spatially(quad.volume.points, 0.5 * mean_radius), Derivatives::gradients,
+      [&](int q, const MlsEvaluation& eval) {
+        const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];
+        const double w = quad.volume.weights[static_cast<std::size_t>(q)];
+        if (corrected)
+          volume.add(x, Eigen::Vector3d::Zero(), w, eval.neighbours, eval.value, &eval.gradient);
+        else
+          use_point(x, w, eval.neighbours.data(), eval.value.data(), eval.gradient.data(), static_cast<int>(eval.neighbours.size()));
+      });
+  if (!volume_sampled)
+    return fail("shape functions failed (" + std::string(failed->status == MlsStatus::too_few_nodes ? "too few nodes"
+                                                         : failed->status == MlsStatus::singular_moments
+                                                             ? "singular moment matrix"
+                                                             : "non-finite input") +
+                ", " + std::to_string(failed->neighbours.size()) + " nodes in reach) at volume quadrature point " +
+                std::to_string(failed_point));
   if (corrected) {
     try {
       model.gradient_correction_left = correct_gradients(cloud.positions, boundary, settings.gradient_correction, volume);

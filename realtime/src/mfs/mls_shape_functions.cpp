@@ -163,6 +163,10 @@ double norm_1(const Eigen::Matrix<double, M, M>& a) noexcept {
 }
 
 template <int M>
+MlsStatus finish_from_inverse(const Eigen::Matrix<double, M, M>& inverse, Derivatives derivatives,
+                              MlsEvaluation& result) noexcept;
+
+template <int M>
 MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& positions,
                          const std::vector<double>& radii, const std::vector<int>& candidates,
                          const MlsSettings& settings, double radius_scale, Derivatives derivatives,
@@ -261,6 +265,18 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
     return MlsStatus::singular_moments;
   }
   inverse = frame.asDiagonal() * inverse * frame.asDiagonal();
+  return finish_from_inverse<M>(inverse, derivatives, result);
+}
+
+/// Everything after A⁻¹ (physical frame): γ, its derivatives, and the shape functions. On entry
+/// `result` holds pass 1's neighbours, their weights in `value`, the weights' gradients in
+/// `gradient` (and Hessians in `hessian`) and the basis at each neighbour in `basis_scratch`.
+template <int M>
+MlsStatus finish_from_inverse(const Eigen::Matrix<double, M, M>& inverse, Derivatives derivatives,
+                              MlsEvaluation& result) noexcept {
+  const bool want_gradients = derivatives != Derivatives::values;
+  const bool want_hessians = derivatives == Derivatives::hessians;
+  const std::size_t n = result.neighbours.size();
   // The basis at each neighbour, as pass 1 computed it, and t_J = p_Jᵀγ, computed once.
   const auto basis_of = [&](std::size_t k) { return Eigen::Map<const Vec<M>>(result.basis_scratch.data() + k * M); };
 
@@ -350,6 +366,169 @@ MlsStatus evaluate_fixed(const Eigen::Vector3d& x, const std::vector<Eigen::Vect
   return MlsStatus::ok;
 }
 
+/// Four points side by side, one per lane of a vector: the quadratic basis with the quartic
+/// spline weight at support scale 1, every node a candidate. The moment sums and the 10 × 10
+/// inverses are those of evaluate_fixed<10> lane by lane (the same operations in the same
+/// order per entry; only the exact condition number's column sums may round differently).
+/// Whatever evaluate_fixed would not finish at scale 1 (too few nodes, a singular or
+/// ill-conditioned A, a non-finite input) goes back to the one-point evaluation, which then
+/// grows the supports as it always does.
+using Lanes = Eigen::Array4d;
+constexpr int lane_count = 4;
+constexpr int quadratic_terms = 10;
+
+/// invert_spd<10> on four matrices at once (entry [i][j], i ≥ j, of the lower triangle; lane k
+/// of each entry belongs to matrix k). ok[k] is false where matrix k is not positive definite.
+void invert_spd_lanes(const Lanes (&a)[quadratic_terms][quadratic_terms], Lanes (&inverse)[quadratic_terms][quadratic_terms],
+                      bool (&ok)[lane_count]) noexcept {
+  constexpr int M = quadratic_terms;
+  Lanes l[M][M];
+  Lanes l_inv[M][M];
+  for (int j = 0; j < M; ++j) {
+    Lanes pivot = a[j][j];
+    for (int k = 0; k < j; ++k) pivot -= l[j][k] * l[j][k];
+    for (int k = 0; k < lane_count; ++k)
+      if (!(pivot[k] > 0.0)) {
+        ok[k] = false;
+        pivot[k] = 1.0;  // keeps the other lanes' arithmetic finite; this lane is dropped
+      }
+    l[j][j] = pivot.sqrt();
+    const Lanes inv_pivot = l_inv[j][j] = 1.0 / l[j][j];
+    for (int i = j + 1; i < M; ++i) {
+      Lanes v = a[i][j];
+      for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
+      l[i][j] = v * inv_pivot;
+    }
+  }
+  for (int j = 0; j < M; ++j)
+    for (int i = j + 1; i < M; ++i) {
+      Lanes v = Lanes::Zero();
+      for (int k = j; k < i; ++k) v -= l[i][k] * l_inv[k][j];
+      l_inv[i][j] = v * l_inv[i][i];
+    }
+  for (int j = 0; j < M; ++j)
+    for (int i = j; i < M; ++i) {
+      Lanes v = Lanes::Zero();
+      for (int k = i; k < M; ++k) v += l_inv[k][i] * l_inv[k][j];
+      inverse[i][j] = v;
+      inverse[j][i] = v;
+    }
+}
+
+/// Largest column sum of |S| for the symmetric matrices whose lower triangles are in s.
+Lanes norm_1_lanes(const Lanes (&s)[quadratic_terms][quadratic_terms]) noexcept {
+  Lanes largest = Lanes::Zero();
+  for (int j = 0; j < quadratic_terms; ++j) {
+    Lanes sum = Lanes::Zero();
+    for (int i = 0; i < quadratic_terms; ++i) sum += (i >= j ? s[i][j] : s[j][i]).abs();
+    largest = largest.max(sum);
+  }
+  return largest;
+}
+
+void evaluate_quadratic_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
+                              const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
+                              MlsEvaluation* results) noexcept {
+  constexpr int M = quadratic_terms;
+  const bool want_gradients = derivatives != Derivatives::values;
+  const std::size_t node_count = std::min(positions.size(), radii.size());
+  bool vector_path[lane_count] = {};
+  Lanes px, py, pz;
+  for (int k = 0; k < lane_count; ++k) {
+    const Eigen::Vector3d& xk = x[std::min(k, count - 1)];  // spare lanes repeat the last point
+    px[k] = xk.x(), py[k] = xk.y(), pz[k] = xk.z();
+    if (k >= count) continue;
+    vector_path[k] = xk.allFinite();
+    MlsEvaluation& r = results[k];
+    r.rcond = 0.0;
+    r.support_scale = 1.0;
+    r.status = MlsStatus::ok;
+    clear_outputs(r);
+    r.neighbours.resize(node_count);
+    r.value.resize(node_count);
+    if (want_gradients) r.gradient.resize(node_count);
+    r.basis_scratch.resize(node_count * M);
+  }
+  std::size_t found[lane_count] = {};
+  Lanes moments[M][M];
+  for (int i = 0; i < M; ++i)
+    for (int j = 0; j <= i; ++j) moments[i][j] = Lanes::Zero();
+  Lanes rho = Lanes::Zero();
+  bool inputs_finite = true;
+  for (std::size_t j = 0; j < node_count && inputs_finite; ++j) {
+    const Eigen::Vector3d& node = positions[j];
+    if (!node.allFinite() || !std::isfinite(radii[j])) {
+      inputs_finite = false;
+      break;
+    }
+    const double r = radii[j];
+    const Lanes dx = node.x() - px, dy = node.y() - py, dz = node.z() - pz;
+    const Lanes d_squared = dx * dx + dy * dy + dz * dz;
+    const auto near = d_squared < r * r;
+    if (!near.any()) continue;
+    // weight_terms(quartic_spline, s), lane by lane.
+    const Lanes s = d_squared.sqrt() / r;
+    const Lanes t = 1.0 - s;
+    const Lanes w = t * t * t * (1.0 + 3.0 * s);
+    const Lanes dw_over_s = -12.0 * t * t;
+    const auto keep = near && s < 1.0 && w > 0.0;
+    if (!keep.any()) continue;
+    const Lanes kept_w = keep.select(w, Lanes::Zero());
+    // basis_at<10>: 1, x, y, z, x², y², z², xy, yz, zx.
+    const Lanes p[M] = {Lanes::Ones(), dx, dy, dz, dx * dx, dy * dy, dz * dz, dx * dy, dy * dz, dz * dx};
+    for (int b = 0; b < M; ++b) {
+      const Lanes wp = kept_w * p[b];
+      for (int i = b; i < M; ++i) moments[i][b] += wp * p[i];
+    }
+    const double inv_r2 = 1.0 / (r * r);
+    for (int k = 0; k < count; ++k) {
+      if (!keep[k]) continue;
+      MlsEvaluation& out = results[k];
+      const std::size_t at = found[k]++;
+      out.neighbours[at] = static_cast<int>(j);
+      out.value[at] = w[k];
+      if (want_gradients) out.gradient[at] = -dw_over_s[k] * inv_r2 * Eigen::Vector3d(dx[k], dy[k], dz[k]);
+      for (int b = 0; b < M; ++b) out.basis_scratch[at * M + static_cast<std::size_t>(b)] = p[b][k];
+      rho[k] = std::max(rho[k], r);
+    }
+  }
+  // Â = D A D per lane, its inverse, the exact condition number.
+  Lanes frame[M];
+  frame[0] = Lanes::Ones();
+  for (int i = 1; i < 4; ++i) frame[i] = 1.0 / rho;
+  for (int i = 4; i < M; ++i) frame[i] = 1.0 / (rho * rho);
+  Lanes scaled[M][M], inverse[M][M];
+  for (int i = 0; i < M; ++i)
+    for (int j = 0; j <= i; ++j) scaled[i][j] = frame[i] * moments[i][j] * frame[j];
+  bool positive_definite[lane_count] = {true, true, true, true};
+  invert_spd_lanes(scaled, inverse, positive_definite);
+  const Lanes rcond = 1.0 / (norm_1_lanes(scaled) * norm_1_lanes(inverse));
+  for (int k = 0; k < count; ++k) {
+    MlsEvaluation& out = results[k];
+    bool finished = vector_path[k] && inputs_finite && found[k] >= static_cast<std::size_t>(M) && positive_definite[k];
+    if (finished) {
+      out.neighbours.resize(found[k]);
+      out.value.resize(found[k]);
+      if (want_gradients) out.gradient.resize(found[k]);
+      out.basis_scratch.resize(found[k] * M);
+      out.rcond = std::isfinite(rcond[k]) ? rcond[k] : 0.0;
+      finished = rcond[k] >= settings.min_rcond;
+    }
+    if (finished) {
+      Eigen::Matrix<double, M, M> inverse_k;
+      Vec<M> frame_k;
+      for (int i = 0; i < M; ++i) {
+        frame_k(i) = frame[i][k];
+        for (int j = 0; j < M; ++j) inverse_k(i, j) = inverse[i][j][k];
+      }
+      inverse_k = frame_k.asDiagonal() * inverse_k * frame_k.asDiagonal();
+      out.status = finish_from_inverse<M>(inverse_k, derivatives, out);
+      finished = out.status == MlsStatus::ok;
+    }
+    if (!finished) evaluate_mls(x[k], positions, radii, {}, settings, derivatives, out);
+  }
+}
+
 }  // namespace
 
 void evaluate_mls(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& positions,
@@ -379,6 +558,18 @@ void evaluate_mls(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& 
   if (result.status != MlsStatus::ok) {
     clear_outputs(result);
   }
+}
+
+void evaluate_mls_batch(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
+                        const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
+                        MlsEvaluation* results) noexcept {
+  if (count <= 0) return;
+  if (count > lane_count || settings.basis != Basis::quadratic || settings.weight != Weight::quartic_spline ||
+      derivatives == Derivatives::hessians) {
+    for (int k = 0; k < count; ++k) evaluate_mls(x[k], positions, radii, {}, settings, derivatives, results[k]);
+    return;
+  }
+  evaluate_quadratic_lanes(x, count, positions, radii, settings, derivatives, results);
 }
 
 Eigen::Vector3d weight_and_derivatives(Weight weight, double s) noexcept {

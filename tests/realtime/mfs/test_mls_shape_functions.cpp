@@ -580,3 +580,122 @@ TEST(MlsShapeFunctions, ReusesTheResultBuffers) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Several points at once
+
+/// evaluate_mls_batch must give each point what evaluate_mls gives it: the same status, support
+/// growth and neighbours, and the same numbers to rounding (the lanes run the same operations;
+/// only where the compiler fuses a multiply and an add differently may the last bit differ).
+void expect_same_evaluation(const MlsEvaluation& batch, const MlsEvaluation& one, double tolerance, double& worst) {
+  ASSERT_EQ(batch.status, one.status);
+  EXPECT_EQ(batch.support_scale, one.support_scale);
+  ASSERT_EQ(batch.neighbours, one.neighbours);
+  ASSERT_EQ(batch.value.size(), one.value.size());
+  ASSERT_EQ(batch.gradient.size(), one.gradient.size());
+  EXPECT_EQ(batch.hessian.size(), one.hessian.size());
+  if (one.status == MlsStatus::ok) {
+    EXPECT_NEAR(batch.rcond, one.rcond, 1e-12 * one.rcond);
+  } else {
+    EXPECT_EQ(batch.rcond, one.rcond);
+  }
+  double value_scale = 0, gradient_scale = 0;
+  for (std::size_t k = 0; k < one.value.size(); ++k) value_scale = std::max(value_scale, std::abs(one.value[k]));
+  for (const Eigen::Vector3d& g : one.gradient) gradient_scale = std::max(gradient_scale, g.cwiseAbs().maxCoeff());
+  for (std::size_t k = 0; k < one.value.size(); ++k) {
+    const double difference = std::abs(batch.value[k] - one.value[k]) / value_scale;
+    worst = std::max(worst, difference);
+    EXPECT_LE(difference, tolerance) << "value " << k;
+  }
+  for (std::size_t k = 0; k < one.gradient.size(); ++k) {
+    const double difference = (batch.gradient[k] - one.gradient[k]).cwiseAbs().maxCoeff() / gradient_scale;
+    worst = std::max(worst, difference);
+    EXPECT_LE(difference, tolerance) << "gradient " << k;
+  }
+}
+
+TEST(MlsShapeFunctionsBatch, EveryPointGetsWhatItsOwnEvaluationGives) {
+  using touchstone::realtime::mfs::evaluate_mls_batch;
+  std::mt19937 rng(23);
+  const Cloud cloud = jittered_lattice(6, 0.3, 2.5, 0.2, rng);
+  std::uniform_real_distribution<double> inside(0.5, 4.5);
+  std::vector<Eigen::Vector3d> points;
+  for (int q = 0; q < 40; ++q) points.push_back(origin + h * Eigen::Vector3d(inside(rng), inside(rng), inside(rng)));
+  // Points where the supports must grow (a corner of the lattice sees few nodes), where no node
+  // reaches, and one that is not a number, among ordinary ones.
+  points.push_back(origin + h * Eigen::Vector3d(-1.2, -1.2, -1.2));
+  points.push_back(origin + Eigen::Vector3d::Constant(1.0));
+  points.push_back(Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0));
+  points.push_back(origin + h * Eigen::Vector3d(2.2, 2.7, 1.9));
+  MlsSettings growing;
+  growing.max_support_scale = 2.0;
+  // 1e-13 of the largest entry: rounding leaves about 1e-15; a lane that mixed up its nodes,
+  // its basis or its inverse would be off by O(1).
+  constexpr double tolerance = 1e-13;
+  double worst = 0;
+  int statuses[4] = {};
+  for (const MlsSettings& settings : {MlsSettings{}, growing})
+    for (const Derivatives derivatives : {Derivatives::values, Derivatives::gradients})
+      for (int count = 1; count <= 4; ++count)
+        for (std::size_t first = 0; first + static_cast<std::size_t>(count) <= points.size(); first += static_cast<std::size_t>(count)) {
+          SCOPED_TRACE(::testing::Message() << "count " << count << ", first point " << first << ", growth bound "
+                                            << settings.max_support_scale);
+          MlsEvaluation batch[4], one;
+          evaluate_mls_batch(points.data() + first, count, cloud.positions, cloud.radii, settings, derivatives, batch);
+          for (int k = 0; k < count; ++k) {
+            evaluate_mls(points[first + static_cast<std::size_t>(k)], cloud.positions, cloud.radii, {}, settings, derivatives, one);
+            expect_same_evaluation(batch[k], one, tolerance, worst);
+            ++statuses[static_cast<int>(one.status)];
+          }
+        }
+  std::cout << "largest relative difference from the one-point evaluation: " << worst << "\n";
+  // Every path was taken: the lanes, the growth, too few nodes and a non-finite point.
+  EXPECT_GT(statuses[static_cast<int>(MlsStatus::ok)], 0);
+  EXPECT_GT(statuses[static_cast<int>(MlsStatus::too_few_nodes)], 0);
+  EXPECT_GT(statuses[static_cast<int>(MlsStatus::non_finite_input)], 0);
+}
+
+TEST(MlsShapeFunctionsBatch, GrowsTheSupportsWhereTheOnePointEvaluationDoes) {
+  using touchstone::realtime::mfs::evaluate_mls_batch;
+  std::mt19937 rng(29);
+  const Cloud cloud = jittered_lattice(5, 0.3, 2.5, 0.0, rng);
+  MlsSettings settings;
+  settings.max_support_scale = 2.0;
+  const Eigen::Vector3d points[3] = {origin + h * Eigen::Vector3d(2.1, 1.9, 2.2), origin + h * Eigen::Vector3d(-1.5, -1.5, -1.5),
+                                     origin + h * Eigen::Vector3d(1.7, 2.3, 2.0)};
+  MlsEvaluation batch[3];
+  evaluate_mls_batch(points, 3, cloud.positions, cloud.radii, settings, Derivatives::gradients, batch);
+  EXPECT_EQ(batch[0].support_scale, 1.0);
+  EXPECT_GT(batch[1].support_scale, 1.0);  // the corner point needed larger supports
+  EXPECT_EQ(batch[2].support_scale, 1.0);
+  for (const MlsEvaluation& r : batch) EXPECT_EQ(r.status, MlsStatus::ok);
+}
+
+TEST(MlsShapeFunctionsBatch, OtherSettingsAndANonFiniteNodeGoPointByPoint) {
+  using touchstone::realtime::mfs::evaluate_mls_batch;
+  std::mt19937 rng(31);
+  Cloud cloud = jittered_lattice(6, 0.3, 2.5, 0.2, rng);
+  const Eigen::Vector3d points[4] = {origin + h * Eigen::Vector3d(2.1, 1.9, 2.2), origin + h * Eigen::Vector3d(3.1, 2.9, 2.2),
+                                     origin + h * Eigen::Vector3d(2.6, 2.4, 3.3), origin + h * Eigen::Vector3d(1.7, 2.3, 2.0)};
+  // Settings the lanes do not run: the result is evaluate_mls's, to the bit.
+  for (const Basis basis : all_bases)
+    for (const Weight weight : all_weights)
+      for (const Derivatives derivatives : {Derivatives::values, Derivatives::gradients, Derivatives::hessians}) {
+        if (basis == Basis::quadratic && weight == Weight::quartic_spline && derivatives != Derivatives::hessians) continue;
+        const MlsSettings settings{basis, weight, 1e-12, 1.0};
+        MlsEvaluation batch[4], one;
+        evaluate_mls_batch(points, 4, cloud.positions, cloud.radii, settings, derivatives, batch);
+        for (int k = 0; k < 4; ++k) {
+          evaluate_mls(points[k], cloud.positions, cloud.radii, {}, settings, derivatives, one);
+          ASSERT_EQ(batch[k].status, one.status);
+          EXPECT_EQ(batch[k].value, one.value);
+          EXPECT_EQ(batch[k].gradient, one.gradient);
+          EXPECT_EQ(batch[k].hessian, one.hessian);
+        }
+      }
+  // A node that is not a number makes every point's input invalid, as for one point.
+  cloud.positions[17].y() = std::numeric_limits<double>::quiet_NaN();
+  MlsEvaluation batch[4];
+  evaluate_mls_batch(points, 4, cloud.positions, cloud.radii, MlsSettings{}, Derivatives::gradients, batch);
+  for (const MlsEvaluation& r : batch) expect_failed_cleanly(r, MlsStatus::non_finite_input);
+}
