@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <vtkNew.h>
 #include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
 #include <vtkDataArray.h>
 #include <vtkPointData.h>
 #include <vtkXMLPolyDataReader.h>
@@ -64,6 +65,17 @@ TriangleMeshData sphere() {
   TriangleMeshData mesh = geometry::icosphere(2, 0.04);
   for (Vector3d& x : mesh.vertices) x += Vector3d(0.1, -0.2, 0.3);
   return mesh;
+}
+
+/// The sphere as VTK poly data (written by the project's writer, read back by VTK): the input
+/// of the tests that write the other VTK XML layouts with VTK's own writer.
+vtkSmartPointer<vtkPolyData> sphere_poly_data(const TemporaryDirectory& directory) {
+  const TriangleMeshData mesh = sphere();
+  write_surface_mesh(directory.path("plain.vtp"), mesh.vertices, mesh.triangles);
+  vtkNew<vtkXMLPolyDataReader> plain;
+  plain->SetFileName(directory.path("plain.vtp").c_str());
+  plain->Update();
+  return plain->GetOutput();
 }
 
 /// STL stores floats: the sphere rounded to them, so that the round trip is exact.
@@ -637,14 +649,9 @@ TEST(SurfaceMeshIo, BinaryStlCountIsCheckedBeforeVtkAllocates) {
 // found: reading the value past the tag's end threw std::out_of_range) is a named error.
 TEST(SurfaceMeshIo, AnAppendedArrayWithAnEmptyOffsetFailsClearly) {
   const TemporaryDirectory directory("surface_io");
-  const TriangleMeshData mesh = sphere();
-  write_surface_mesh(directory.path("plain.vtp"), mesh.vertices, mesh.triangles);
-  vtkNew<vtkXMLPolyDataReader> plain;
-  plain->SetFileName(directory.path("plain.vtp").c_str());
-  plain->Update();
   const std::string path = directory.path("appended.vtp");
   vtkNew<vtkXMLPolyDataWriter> writer;
-  writer->SetInputData(plain->GetOutput());
+  writer->SetInputData(sphere_poly_data(directory));
   writer->SetFileName(path.c_str());
   writer->SetCompressorTypeToZLib();
   writer->SetDataMode(vtkXMLWriter::Appended);
@@ -665,10 +672,7 @@ TEST(SurfaceMeshIo, AnAppendedArrayWithAnEmptyOffsetFailsClearly) {
 TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
   const TemporaryDirectory directory("surface_io");
   const TriangleMeshData mesh = sphere();
-  write_surface_mesh(directory.path("plain.vtp"), mesh.vertices, mesh.triangles);
-  vtkNew<vtkXMLPolyDataReader> plain;
-  plain->SetFileName(directory.path("plain.vtp").c_str());
-  plain->Update();
+  const vtkSmartPointer<vtkPolyData> plain = sphere_poly_data(directory);
   struct Layout {
     const char* name;
     int mode;
@@ -682,7 +686,7 @@ TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
     SCOPED_TRACE(layout.name);
     const std::string path = directory.path(layout.name);
     vtkNew<vtkXMLPolyDataWriter> writer;
-    writer->SetInputData(plain->GetOutput());
+    writer->SetInputData(plain);
     writer->SetFileName(path.c_str());
     writer->SetCompressorTypeToZLib();
     writer->SetDataMode(layout.mode);
