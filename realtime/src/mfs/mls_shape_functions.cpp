@@ -109,43 +109,60 @@ void clear_outputs(MlsEvaluation& result) noexcept {
   result.hessian.clear();
 }
 
-/// Inverse of the symmetric matrix whose lower triangle is in `a`, by Cholesky: A = L Lᵀ,
+inline double square_root(double v) noexcept { return std::sqrt(v); }
+inline Eigen::Array4d square_root(const Eigen::Array4d& v) noexcept { return v.sqrt(); }
+inline void set_zero(double& v) noexcept { v = 0.0; }
+inline void set_zero(Eigen::Array4d& v) noexcept { v.setZero(); }
+
+/// Inverse of a symmetric positive definite M × M matrix by Cholesky: A = L Lᵀ,
 /// A⁻¹ = L⁻ᵀ L⁻¹. Hand-written for the fixed sizes 4 and 10: Eigen's general triangular solves
-/// cost more than the whole factorisation here. False if A is not positive definite.
-template <int M>
-bool invert_spd(const Eigen::Matrix<double, M, M>& a, Eigen::Matrix<double, M, M>& inverse) noexcept {
-  double l[M][M] = {};
-  double l_inv[M][M] = {};  // L⁻¹, lower triangular; its diagonal comes with the factorisation
+/// cost more than the whole factorisation here. T is double (one matrix) or Eigen::Array4d (four
+/// matrices, one per lane, each lane doing the same operations in the same order as the one
+/// matrix would). `a(i, j)` gives the lower triangle (i ≥ j); `store(i, j, v)` receives A⁻¹'s
+/// entries (i ≥ j, for both triangles). `accept_pivot(pivot)` sees each pivot before its square
+/// root: false stops with false; it may replace the pivots of lanes it gives up.
+template <int M, class T, class Entry, class Store, class AcceptPivot>
+bool cholesky_inverse(Entry a, Store store, AcceptPivot accept_pivot) noexcept {
+  T l[M][M];
+  T l_inv[M][M];  // L⁻¹, lower triangular; its diagonal comes with the factorisation
   for (int j = 0; j < M; ++j) {
-    double pivot = a(j, j);
+    T pivot = a(j, j);
     for (int k = 0; k < j; ++k) pivot -= l[j][k] * l[j][k];
-    if (!(pivot > 0.0)) return false;
-    l[j][j] = std::sqrt(pivot);
-    const double inv_pivot = l_inv[j][j] = 1.0 / l[j][j];
+    if (!accept_pivot(pivot)) return false;
+    l[j][j] = square_root(pivot);
+    const T inv_pivot = l_inv[j][j] = 1.0 / l[j][j];
     for (int i = j + 1; i < M; ++i) {
-      double v = a(i, j);
+      T v = a(i, j);
       for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
       l[i][j] = v * inv_pivot;
     }
   }
   // Products with the diagonal's reciprocals, not a division per entry (the divider set the
   // pace of the whole evaluation).
-  for (int j = 0; j < M; ++j) {
+  for (int j = 0; j < M; ++j)
     for (int i = j + 1; i < M; ++i) {
-      double v = 0.0;
+      T v;
+      set_zero(v);
       for (int k = j; k < i; ++k) v -= l[i][k] * l_inv[k][j];
       l_inv[i][j] = v * l_inv[i][i];
     }
-  }
-  for (int j = 0; j < M; ++j) {
+  for (int j = 0; j < M; ++j)
     for (int i = j; i < M; ++i) {
-      double v = 0.0;
+      T v;
+      set_zero(v);
       for (int k = i; k < M; ++k) v += l_inv[k][i] * l_inv[k][j];
-      inverse(i, j) = v;
-      inverse(j, i) = v;
+      store(i, j, v);
     }
-  }
   return true;
+}
+
+/// Inverse of the symmetric matrix whose lower triangle is in `a`. False if A is not positive
+/// definite.
+template <int M>
+bool invert_spd(const Eigen::Matrix<double, M, M>& a, Eigen::Matrix<double, M, M>& inverse) noexcept {
+  return cholesky_inverse<M, double>([&](int i, int j) { return a(i, j); },
+                                     [&](int i, int j, double v) { inverse(i, j) = inverse(j, i) = v; },
+                                     [](double pivot) { return pivot > 0.0; });
 }
 
 /// Lower triangle of a += w p pᵀ, column by column with fixed-size (vectorised) segments.
@@ -381,38 +398,16 @@ constexpr int quadratic_terms = 10;
 /// of each entry belongs to matrix k). ok[k] is false where matrix k is not positive definite.
 void invert_spd_lanes(const Lanes (&a)[quadratic_terms][quadratic_terms], Lanes (&inverse)[quadratic_terms][quadratic_terms],
                       bool (&ok)[lane_count]) noexcept {
-  constexpr int M = quadratic_terms;
-  Lanes l[M][M];
-  Lanes l_inv[M][M];
-  for (int j = 0; j < M; ++j) {
-    Lanes pivot = a[j][j];
-    for (int k = 0; k < j; ++k) pivot -= l[j][k] * l[j][k];
-    for (int k = 0; k < lane_count; ++k)
-      if (!(pivot[k] > 0.0)) {
-        ok[k] = false;
-        pivot[k] = 1.0;  // keeps the other lanes' arithmetic finite; this lane is dropped
-      }
-    l[j][j] = pivot.sqrt();
-    const Lanes inv_pivot = l_inv[j][j] = 1.0 / l[j][j];
-    for (int i = j + 1; i < M; ++i) {
-      Lanes v = a[i][j];
-      for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
-      l[i][j] = v * inv_pivot;
-    }
-  }
-  for (int j = 0; j < M; ++j)
-    for (int i = j + 1; i < M; ++i) {
-      Lanes v = Lanes::Zero();
-      for (int k = j; k < i; ++k) v -= l[i][k] * l_inv[k][j];
-      l_inv[i][j] = v * l_inv[i][i];
-    }
-  for (int j = 0; j < M; ++j)
-    for (int i = j; i < M; ++i) {
-      Lanes v = Lanes::Zero();
-      for (int k = i; k < M; ++k) v += l_inv[k][i] * l_inv[k][j];
-      inverse[i][j] = v;
-      inverse[j][i] = v;
-    }
+  cholesky_inverse<quadratic_terms, Lanes>([&](int i, int j) { return a[i][j]; },
+                                           [&](int i, int j, const Lanes& v) { inverse[i][j] = inverse[j][i] = v; },
+                                           [&](Lanes& pivot) {
+                                             for (int k = 0; k < lane_count; ++k)
+                                               if (!(pivot[k] > 0.0)) {
+                                                 ok[k] = false;
+                                                 pivot[k] = 1.0;  // keeps the other lanes finite; this lane is dropped
+                                               }
+                                             return true;
+                                           });
 }
 
 /// Largest column sum of |S| for the symmetric matrices whose lower triangles are in s.
