@@ -20,7 +20,7 @@ struct SolverSettings {
   double gmres_tolerance = 1e-12;   ///< relative residual
   int gmres_restart = 60;
   int gmres_max_iterations = 2000;
-  /// A solve whose relative residual (of KᵀK for least squares) exceeds this is a failure.
+  /// A solve whose relative residual (of the normal equations for least squares) exceeds this is a failure.
   double max_relative_residual = 1e-6;
   double ilut_drop_tolerance = 1e-6;
   int ilut_fill_factor = 20;
@@ -31,7 +31,7 @@ struct SolverSettings {
 struct SolveReport {
   bool ok = true;
   int iterations = 0;           ///< GMRES iterations (0 for LU)
-  double relative_residual = 0; ///< ‖K x − f‖ / ‖f‖ of the last solve (of KᵀK x = Kᵀf for least squares)
+  double relative_residual = 0; ///< ‖K x − f‖ / ‖f‖ of the last solve; for least squares ‖Kᵀ(K x − f)‖ / ‖Kᵀf‖, through K
   std::string failure;
   double least_squares_residual = 0;  ///< ‖K x − f‖ / ‖f‖ when K is rectangular (not zero: the fit's misfit)
 };
