@@ -131,7 +131,7 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
   contact.condition = condition;
   const Material material = tissue();
   double sprinkle_s = 0, assembly_s = 0, factorize_s = 0, condense_s = 0, volume_s = 0, boundary_s = 0;
-  double nodes = 0, extra_points = 0, stiffness_zz = 0, mls_evaluations = 0, point_nodes = 0;
+  double nodes = 0, extra_points = 0, stiffness_zz = 0, mls_evaluations = 0, point_nodes = 0, gram_overhead = 0;
   for (auto _ : state) {
     LocalModel model;
     try {
@@ -154,6 +154,7 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
     stiffness_zz = model.tool_stiffness_N_per_m(2, 2);
     mls_evaluations = model.enriched.mls_evaluations;
     point_nodes = model.enriched.mean_volume_point_nodes;
+    gram_overhead = model.enriched.gram_product_overhead;
     volume_s += model.enriched.volume_s;
     boundary_s += model.enriched.boundary_s;
   }
@@ -174,6 +175,8 @@ void build_with_contact(benchmark::State& state, const LocalModelSettings& setti
   }
   // Nodes per volume point: near N the MLS part is dense (its cost grows as N² per point).
   if (point_nodes > 0) state.counters["nodes_per_volume_point"] = point_nodes;
+  // The Gram batches' products over what the points' own node sets need (1: none wasted).
+  if (gram_overhead > 0) state.counters["gram_product_overhead"] = gram_overhead;
 }
 
 void build(benchmark::State& state, const LocalModelSettings& settings) {

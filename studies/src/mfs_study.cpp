@@ -165,6 +165,7 @@ json enriched_diagnostics(const mfs::LocalModel& model, const mfs::LocalSolution
           {"mls_evaluations", e.mls_evaluations},
           {"volume_points", e.volume_points},
           {"mean_volume_point_nodes", json_number(e.mean_volume_point_nodes)},
+          {"gram_product_overhead", json_number(e.gram_product_overhead)},
           {"gradient_correction", e.gradient_correction == mfs::GradientCorrection::linear ? "linear" : "none"},
           {"gradient_correction_left", json_number(e.gradient_correction_left)},
           {"volume_rule", json::array({e.volume_rule[0], e.volume_rule[1], e.volume_rule[2]})},

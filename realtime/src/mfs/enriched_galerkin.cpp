@@ -702,6 +702,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     }
   }
   gram.add_isotropic_stiffness(projected ? 0.0 : lambda, mu, K);
+  model.gram_product_overhead = gram.product_overhead();
   if (projected) {
     // The ψ rows of G were summed below the diagonal only.
     space_gram.triangularView<Eigen::StrictlyUpper>() = space_gram.transpose().triangularView<Eigen::StrictlyUpper>();

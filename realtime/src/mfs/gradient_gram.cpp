@@ -69,6 +69,10 @@ void GradientGram::flush() {
   local_gram_.resize(3 * u, 3 * u);
   local_gram_.triangularView<Eigen::Lower>().setZero();
   local_gram_.selfadjointView<Eigen::Lower>().rankUpdate(local_gradients_);
+  const auto lower_triangle = [](double rows) { return rows * (rows + 1) / 2; };
+  products_made_ += lower_triangle(3.0 * u) * batch_size_;
+  for (int p = 0; p < batch_size_; ++p)
+    products_needed_ += lower_triangle(3.0 * static_cast<double>(batch_nodes_[static_cast<std::size_t>(p)].size()));
   // Each local row's global row, once per batch rather than a division per entry.
   global_row_.resize(static_cast<std::size_t>(3 * u));
   for (int r = 0; r < 3 * u; ++r)

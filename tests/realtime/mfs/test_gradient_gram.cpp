@@ -70,6 +70,36 @@ TEST(GradientGram, EqualsThePairwiseAssemblyForAnyBatching) {
   }
 }
 
+// The product overhead counts multiplications: a batch of P points over a union of u nodes
+// makes P · 3u(3u + 1)/2, each point of k nodes needs 3k(3k + 1)/2.
+TEST(GradientGram, ProductOverheadCountsTheUnionsProducts) {
+  const std::vector<Eigen::Vector3d> gradients(4, Eigen::Vector3d(1.0, 2.0, 3.0));
+  const auto lower = [](double rows) { return rows * (rows + 1) / 2; };
+  {
+    GradientGram gram(20);
+    EXPECT_EQ(gram.product_overhead(), 0.0);  // nothing closed yet
+    for (int p = 0; p < 5; ++p) gram.add({2, 5, 7, 11}, gradients, 1e-9);
+    gram.gram();
+    EXPECT_DOUBLE_EQ(gram.product_overhead(), 1.0);  // the same four nodes at every point
+  }
+  {
+    // Two points with disjoint sets of four nodes in one batch (growth 2 admits the union of 8).
+    GradientGram gram(20, 64, 2.0);
+    gram.add({0, 1, 2, 3}, gradients, 1e-9);
+    gram.add({4, 5, 6, 7}, gradients, 1e-9);
+    gram.gram();
+    EXPECT_DOUBLE_EQ(gram.product_overhead(), 2 * lower(24) / (2 * lower(12)));
+  }
+  {
+    // The same points with no growth allowed: two batches, no overhead.
+    GradientGram gram(20, 64, 1.0);
+    gram.add({0, 1, 2, 3}, gradients, 1e-9);
+    gram.add({4, 5, 6, 7}, gradients, 1e-9);
+    gram.gram();
+    EXPECT_DOUBLE_EQ(gram.product_overhead(), 1.0);
+  }
+}
+
 TEST(GradientGram, AnAffineFieldHasTheExactStrainEnergy) {
   // The linear tetrahedron's shape functions reproduce affine fields: for u = Fx the nodal
   // values give ε = sym F at every point, so uᵀKu = V (λ (tr ε)² + 2μ ε:ε) exactly.

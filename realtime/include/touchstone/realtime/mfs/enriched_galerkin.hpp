@@ -186,6 +186,10 @@ struct EnrichedModel {
   /// Nodes seen per volume point, averaged over the volume rule. Near N the MLS part is dense
   /// and its assembly costs (volume points) × N², whatever is done per point.
   double mean_volume_point_nodes = 0;
+  /// The MLS–MLS block's dense products over what the points' own node sets need
+  /// (GradientGram::product_overhead): the price of batching nearby points over the union of
+  /// their nodes, small where every point sees nearly every node, large on big clouds.
+  double gram_product_overhead = 0;
   double min_rcond = 1, max_support_scale = 1;
   double kkt_relative_residual = 0;
   /// The part of the integration-constraint residuals the gradient correction could not remove,

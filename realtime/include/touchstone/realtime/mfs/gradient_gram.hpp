@@ -38,6 +38,11 @@ class GradientGram {
   /// A (3N × 3N, row iN + a for ∂_i N_a), symmetric. Flushes the open batch.
   Eigen::MatrixXd gram();
 
+  /// The multiplications the batches' dense products made over those the points' own node sets
+  /// need (each point's lower triangle of its 3k × 3k outer product): 1 when every batch's
+  /// points see the same nodes; it grows with the batches' unions. 0 before any batch closed.
+  double product_overhead() const noexcept { return products_needed_ > 0 ? products_made_ / products_needed_ : 0.0; }
+
  private:
   void flush();
 
@@ -52,6 +57,7 @@ class GradientGram {
   std::vector<int> union_nodes_, slot_;
   std::vector<Eigen::Index> global_row_;  // the open batch's local row → row of A
   Eigen::MatrixXd local_gradients_, local_gram_;
+  double products_made_ = 0, products_needed_ = 0;
 };
 
 /// The order in which to visit `points` so that consecutive points are close: by the Morton
