@@ -184,9 +184,9 @@ class Scene {
   std::vector<Segment> coherent_segments_;
   std::vector<Vector3d> near_points_;
   std::vector<Vector3d> box_points_;
-  using Key = std::tuple<BoundingVolume, int, int, double>;
+  using Key = std::tuple<BoundingVolume, int, int, double, bool>;
   static Key key(const BvhSettings& s) {
-    return {s.bounding_volume, s.max_leaf_triangles, s.children_per_node, s.entry_grid_cell};
+    return {s.bounding_volume, s.max_leaf_triangles, s.children_per_node, s.entry_grid_cell, s.float_leaf_test};
   }
   std::map<Key, std::unique_ptr<BoundingVolumeHierarchy>> trees_;
   std::unique_ptr<EmbreeScene> embree_;
@@ -212,6 +212,7 @@ std::string tree_name(const BvhSettings& s) {
   std::ostringstream name;
   name << (s.bounding_volume == BoundingVolume::obb ? "obb" : "aabb") << "/width:" << s.children_per_node
        << "/leaf:" << s.max_leaf_triangles << "/grid:" << s.entry_grid_cell;
+  if (!s.float_leaf_test) name << "/double_leaves";
   return name.str();
 }
 
@@ -383,6 +384,12 @@ void register_scene(const std::string& label, Scene* scene) {
     }
   }
   for (BoundingVolume volume : volumes) add_contact("first_contact", tree_settings(volume, 2, 1, 0), false);
+  // The leaves' float pre-test against testing every triangle of a leaf in double.
+  for (BoundingVolume volume : volumes) {
+    BvhSettings double_leaves = tree_settings(volume, 4, 4, 2);
+    double_leaves.float_leaf_test = false;
+    add_contact("first_contact", double_leaves, false);
+  }
   for (double grid : {0.0, 1.0, 4.0}) {
     for (BoundingVolume volume : volumes) add_contact("first_contact", tree_settings(volume, 4, 2, grid), false);
   }

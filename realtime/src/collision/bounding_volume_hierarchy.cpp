@@ -116,6 +116,7 @@ void BoundingVolumeHierarchy::build() {
   binary_depth_ = 0;
   leaf_count_ = 0;
   max_leaf_size_ = 0;
+  leaf_slots_.clear();
   while (!tasks.empty()) {
     const Task task = tasks.back();
     tasks.pop_back();
@@ -137,6 +138,7 @@ void BoundingVolumeHierarchy::build() {
     if (size <= settings_.max_leaf_triangles) {
       ++leaf_count_;
       max_leaf_size_ = std::max(max_leaf_size_, size);
+      leaf_slots_.emplace_back(task.begin, size);
       continue;
     }
     Eigen::Index axis = 0;
@@ -323,6 +325,19 @@ void BoundingVolumeHierarchy::update_geometry() {
     upper = upper.cwiseMax(v);
   }
   margin_ = relative_margin * (upper - lower).norm();
+
+  leaf_corners_origin_ = 0.5 * (lower + upper);
+  leaf_corners_extent_ = 0.5 * (upper - lower).maxCoeff();
+  leaf_corners_.assign(9 * static_cast<std::size_t>(n) + 3, 0.0f);
+  for (const auto& [first, count] : leaf_slots_) {
+    float* leaf = leaf_corners_.data() + 9 * static_cast<std::size_t>(first);
+    for (int i = 0; i < count; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const Vector3d relative = corners_[3 * static_cast<std::size_t>(first + i) + k] - leaf_corners_origin_;
+        for (int axis = 0; axis < 3; ++axis) leaf[(3 * k + axis) * count + i] = static_cast<float>(relative[axis]);
+      }
+    }
+  }
 }
 
 Vector3d BoundingVolumeHierarchy::pseudo_normal(int slot, int feature) const noexcept {
@@ -483,6 +498,7 @@ BvhStats BoundingVolumeHierarchy::stats() const {
   stats.memory_bytes = obb2_.size() * sizeof(ObbNode<2>) + obb4_.size() * sizeof(ObbNode<4>) +
                        aabb2_.size() * sizeof(AabbNode<2>) + aabb4_.size() * sizeof(AabbNode<4>) +
                        lane_ranges_.size() * sizeof(LaneRanges) + corners_.size() * sizeof(Vector3d) +
+                       leaf_corners_.size() * sizeof(float) + leaf_slots_.size() * sizeof(std::pair<int, int>) +
                        face_normals_.size() * sizeof(Vector3d) +
                        (vertex_corner_offsets_.size() + vertex_corners_.size()) * sizeof(int) +
                        slot_triangle_.size() * sizeof(int) + edge_neighbour_slot_.size() * sizeof(int) +

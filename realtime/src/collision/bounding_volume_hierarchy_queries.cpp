@@ -54,13 +54,13 @@ struct WatertightRay {
   // are exact zeros, so a dot product computes exactly Woop's p_kx − S_x p_kz for every vertex,
   // whichever triangle it belongs to.
   Vector3d shear_x, shear_y, shear_z;
+  int kx = 0, ky = 1, kz = 2;  // the permutation: kz the dominant direction component
 
   WatertightRay(const Vector3d& origin_in, const Vector3d& direction_in) noexcept
       : origin(origin_in), direction(direction_in) {
-    int kz = 0;
     direction.cwiseAbs().maxCoeff(&kz);
-    int kx = (kz + 1) % 3;
-    int ky = (kx + 1) % 3;
+    kx = (kz + 1) % 3;
+    ky = (kx + 1) % 3;
     // Keep the winding of the projected triangles when the dominant component is negative.
     if (direction[kz] < 0) std::swap(kx, ky);
     shear_x = Vector3d::Zero();
@@ -108,6 +108,76 @@ inline bool intersect(const WatertightRay& ray, const Vector3d& a, const Vector3
   crossing.t = scaled_t / determinant;
   return true;
 }
+
+/// A WatertightRay in float, for the conservative pre-test of a leaf's triangles
+/// (leaf_candidates): coordinates relative to the tree's float origin.
+struct FloatRay {
+  bool usable = false;  // false: every triangle goes to the double test
+  int kx = 0, ky = 1, kz = 2;
+  float origin[3] = {0, 0, 0};  // origin − float origin, in float [m]
+  float shear_x = 0, shear_y = 0;  // d_kx / d_kz and d_ky / d_kz, each in [−1, 1]
+  float error = 0;  // bound on the error of every sheared corner coordinate [m]
+
+  /// `extent`: max |corner − float_origin|∞ over the surface [m].
+  FloatRay(const WatertightRay& ray, const Vector3d& float_origin, double extent) noexcept
+      : kx(ray.kx), ky(ray.ky), kz(ray.kz) {
+    const Vector3d relative = ray.origin - float_origin;
+    // M bounds every |coordinate| the float test subtracts: corner and origin, relative.
+    const double bound = std::max(extent, relative.cwiseAbs().maxCoeff());
+    // Beyond 1e15 m a product of coordinates could overflow float (the double test decides).
+    if (!(bound < 1e15)) return;
+    usable = true;
+    for (int axis = 0; axis < 3; ++axis) origin[axis] = static_cast<float>(relative[axis]);
+    shear_x = static_cast<float>(ray.direction[kx] / ray.direction[kz]);
+    shear_y = static_cast<float>(ray.direction[ky] / ray.direction[kz]);
+    // With ε = 2⁻²⁴ float's unit roundoff and M = bound: the stored corner and the origin are
+    // each within ε·M of their double values, their difference p within 4ε·M of the exact one,
+    // and a sheared coordinate p_kx − S·p_kz (|S| ≤ 1, S rounded too) within 16ε·M; twice that
+    // covers the double test's own rounding.
+    error = static_cast<float>(32 * std::ldexp(1.0, -24) * bound);
+  }
+};
+
+#if defined(__SSE2__)
+/// Which of (up to) four triangles of a leaf the segment's line may pass through: bit i clear
+/// only when the float edge functions prove that the double test of intersect() rejects
+/// triangle i. `rows`: the leaf's float rows (BoundingVolumeHierarchy::leaf_corners_) at the
+/// first of the four, `stride`: the leaf's triangle count; `valid`: the lanes that hold one.
+///
+/// Why it is conservative: each sheared coordinate x̃ is within D (FloatRay::error) of the value
+/// the double test computes, and |x̃| ≤ X; with X' = X + D an edge function u = c_x b_y − c_y b_x
+/// is then within 4X'D + 4.1ε·X'² (ε = 2⁻²⁴; its two products and the subtraction rounded in
+/// float) of the double test's, so η = 5X'(D + ε·X') bounds the difference with room for η's
+/// own rounding. A triangle is rejected only when one edge function is below −η and another above
+/// η: the double test then sees one negative and one positive, and rejects it too.
+inline int leaf_candidates(const float* rows, int stride, int valid, const FloatRay& ray) noexcept {
+  const auto load = [&](int corner, int axis) { return _mm_loadu_ps(rows + (3 * corner + axis) * stride); };
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  const __m128 error = _mm_set1_ps(ray.error);
+  const __m128 shear_x = _mm_set1_ps(ray.shear_x), shear_y = _mm_set1_ps(ray.shear_y);
+  const __m128 origin_x = _mm_set1_ps(ray.origin[ray.kx]), origin_y = _mm_set1_ps(ray.origin[ray.ky]),
+               origin_z = _mm_set1_ps(ray.origin[ray.kz]);
+  __m128 x[3], y[3];
+  __m128 largest = _mm_setzero_ps();
+  for (int k = 0; k < 3; ++k) {
+    const __m128 z = _mm_sub_ps(load(k, ray.kz), origin_z);
+    x[k] = _mm_sub_ps(_mm_sub_ps(load(k, ray.kx), origin_x), _mm_mul_ps(shear_x, z));
+    y[k] = _mm_sub_ps(_mm_sub_ps(load(k, ray.ky), origin_y), _mm_mul_ps(shear_y, z));
+    largest = _mm_max_ps(largest, _mm_max_ps(_mm_andnot_ps(sign, x[k]), _mm_andnot_ps(sign, y[k])));
+  }
+  const __m128 u = _mm_sub_ps(_mm_mul_ps(x[2], y[1]), _mm_mul_ps(y[2], x[1]));
+  const __m128 v = _mm_sub_ps(_mm_mul_ps(x[0], y[2]), _mm_mul_ps(y[0], x[2]));
+  const __m128 w = _mm_sub_ps(_mm_mul_ps(x[1], y[0]), _mm_mul_ps(y[1], x[0]));
+  const __m128 widened = _mm_add_ps(largest, error);
+  const __m128 eta = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(5.0f), widened),
+                                _mm_add_ps(error, _mm_mul_ps(_mm_set1_ps(0x1p-24f), widened)));
+  const __m128 negative = _mm_cmplt_ps(_mm_min_ps(u, _mm_min_ps(v, w)), _mm_sub_ps(_mm_setzero_ps(), eta));
+  const __m128 positive = _mm_cmpgt_ps(_mm_max_ps(u, _mm_max_ps(v, w)), eta);
+  return valid & ~_mm_movemask_ps(_mm_and_ps(negative, positive));
+}
+#else
+inline int leaf_candidates(const float*, int, int valid, const FloatRay&) noexcept { return valid; }
+#endif
 
 /// Work done by one query, added to the caller's counters at the end (local counts avoid
 /// stores through a pointer in the loop, and vanish when `count` is false).
@@ -330,20 +400,29 @@ struct BoundingVolumeHierarchy::Traversal {
     Vector3d middle, half;
   };
 
+  /// Tests a leaf's triangles: four at a time in float (leaf_candidates), which rejects most of
+  /// them, then the double test on the rest. Every triangle counts as tested.
   template <bool count>
   static void hit_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
-                       Nearest& nearest, Tally& tally) noexcept {
+                       const FloatRay& float_ray, Nearest& nearest, Tally& tally) noexcept {
+    if constexpr (count) tally.triangles += size;
     const Vector3d* corners = bvh.corners_.data();
-    for (int slot = first; slot < first + size; ++slot) {
-      if constexpr (count) ++tally.triangles;
-      Crossing crossing;
-      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) continue;
-      // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
-      if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
-        nearest.t = crossing.t;
-        nearest.slot = slot;
-        nearest.half = (0.5 * crossing.t) * ray.direction;
-        nearest.middle = ray.origin + nearest.half;
+    const float* rows = bvh.leaf_corners_.data() + 9 * static_cast<std::size_t>(first);
+    for (int chunk = 0; chunk < size; chunk += 4) {
+      const int valid = (1 << std::min(4, size - chunk)) - 1;
+      int candidates = float_ray.usable ? leaf_candidates(rows + chunk, size, valid, float_ray) : valid;
+      while (candidates != 0) {
+        const int slot = first + chunk + __builtin_ctz(static_cast<unsigned>(candidates));
+        candidates &= candidates - 1;
+        Crossing crossing;
+        if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) continue;
+        // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
+        if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
+          nearest.t = crossing.t;
+          nearest.slot = slot;
+          nearest.half = (0.5 * crossing.t) * ray.direction;
+          nearest.middle = ray.origin + nearest.half;
+        }
       }
     }
   }
@@ -354,7 +433,7 @@ struct BoundingVolumeHierarchy::Traversal {
   /// against, which prunes every box beyond it.
   template <class Node, bool count>
   static Nearest first_hit(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
-                           double t_end, Tally& tally) noexcept {
+                           const FloatRay& float_ray, double t_end, Tally& tally) noexcept {
     constexpr int width = Node::width;
     Nearest nearest;
     nearest.t = t_end;
@@ -378,7 +457,7 @@ struct BoundingVolumeHierarchy::Traversal {
       if constexpr (count) ++tally.boxes;
       if (!segment_overlaps(bvh.root_box_, nearest.middle, nearest.half)) return nearest;
       if (all.empty()) {
-        hit_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, nearest, tally);
+        hit_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, float_ray, nearest, tally);
         return nearest;
       }
     }
@@ -414,7 +493,7 @@ struct BoundingVolumeHierarchy::Traversal {
         // One box met (the common case on a path to the surface): no ordering needed.
         const int k = __builtin_ctz(static_cast<unsigned>(mask));
         if (node.count[k] > 0) {
-          hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+          hit_leaf<count>(bvh, node.child[k], node.count[k], ray, float_ray, nearest, tally);
         } else {
           next = node.child[k];
         }
@@ -427,7 +506,7 @@ struct BoundingVolumeHierarchy::Traversal {
           const int k = order[step];
           if ((mask >> k & 1) == 0) continue;
           if (node.count[k] > 0) {
-            hit_leaf<count>(bvh, node.child[k], node.count[k], ray, nearest, tally);
+            hit_leaf<count>(bvh, node.child[k], node.count[k], ray, float_ray, nearest, tally);
           } else {
             inner[inner_count++] = node.child[k];
           }
@@ -452,8 +531,10 @@ struct BoundingVolumeHierarchy::Traversal {
                             double t_end, double metres_per_t, QueryCounters* counters) noexcept {
     Tally tally;
     const WatertightRay ray(origin, direction);
+    FloatRay float_ray(ray, bvh.leaf_corners_origin_, bvh.leaf_corners_extent_);
+    float_ray.usable = float_ray.usable && bvh.settings_.float_leaf_test;
     const Nearest nearest = with_nodes(bvh, [&](const auto& all) {
-      return first_hit<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, tally);
+      return first_hit<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, float_ray, t_end, tally);
     });
     SurfaceHit hit;
     if (nearest.slot >= 0) {

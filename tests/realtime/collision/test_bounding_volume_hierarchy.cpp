@@ -775,6 +775,65 @@ TEST(BoundingVolumeHierarchy, FloatBoxTestsPruneNoHitFarFromTheOrigin) {
   }
 }
 
+// The leaves' float pre-test may set a triangle aside only when the double test rejects it, so
+// trees with and without it answer every segment the same to the bit. The segments cross the
+// surface obliquely just inside and just outside every edge (down to 1e-12 of its length) and
+// through its corners, where the edge functions are as small as the float test's rounding; the
+// surface is also moved 1 km from the origin, where float's spacing (6e-5 m) is a few percent of
+// an edge. (With the rounding bound set to zero, answers differ here: segments just inside an
+// edge lose their hit.)
+TEST(BoundingVolumeHierarchy, FloatLeafTestChangesNoAnswer) {
+  struct Shape {
+    BoundingVolume volume;
+    int width, leaf;
+  };
+  // The default; leaves of 3 and 8 (part of a four-lane load, two loads); single triangles.
+  const Shape shapes[] = {{BoundingVolume::aabb, 4, 4}, {BoundingVolume::obb, 4, 3},
+                          {BoundingVolume::aabb, 2, 8}, {BoundingVolume::aabb, 4, 1}};
+  for (const Vector3d& offset : {Vector3d(0, 0, 0), Vector3d(1e3, -700, 300)}) {
+    Mesh mesh = perturbed_ellipsoid();
+    for (Vector3d& v : mesh.vertices) v += offset;
+    for (const Shape& shape : shapes) {
+      BvhSettings settings;
+      settings.bounding_volume = shape.volume;
+      settings.children_per_node = shape.width;
+      settings.max_leaf_triangles = shape.leaf;
+      const BoundingVolumeHierarchy with_float(mesh.vertices, mesh.triangles, settings);
+      settings.float_leaf_test = false;
+      const BoundingVolumeHierarchy double_only(mesh.vertices, mesh.triangles, settings);
+      int queries = 0, hits = 0;
+      for (int t = 0; t < static_cast<int>(mesh.triangles.size()); ++t) {
+        const Vector3d n = face_normal(mesh, t);
+        for (int k = 0; k < 3; ++k) {
+          const Vector3d& a = mesh.vertices[mesh.triangles[t][k]];
+          const Vector3d& b = mesh.vertices[mesh.triangles[t][(k + 1) % 3]];
+          const double length = (b - a).norm();
+          const Vector3d along = (b - a) / length;
+          const Vector3d inward = n.cross(along);  // in the plane, into the triangle
+          const Vector3d direction = (n + 0.3 * along - 0.2 * inward).normalized();
+          for (double s : {0.0, 1e-3, 0.5}) {
+            for (double d : {0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-7, -1e-7, 1e-5, -1e-5, 1e-3, -1e-3}) {
+              const Vector3d target = a + s * (b - a) + d * length * inward;
+              const Vector3d from = target + 0.1 * length * direction;
+              const Vector3d to = target - 0.1 * length * direction;
+              const SurfaceHit expected = double_only.first_hit_segment(from, to);
+              const SurfaceHit hit = with_float.first_hit_segment(from, to);
+              ++queries;
+              hits += expected.hit;
+              ASSERT_EQ(hit.hit, expected.hit) << "triangle " << t << ", edge " << k << ", s " << s << ", d " << d
+                                               << ", offset " << offset.transpose();
+              ASSERT_EQ(hit.triangle, expected.triangle);
+              ASSERT_EQ(hit.distance_m, expected.distance_m);
+            }
+          }
+        }
+      }
+      // Nearly every segment crosses the surface (only some just outside a silhouette miss).
+      EXPECT_GT(hits, 9 * queries / 10);
+    }
+  }
+}
+
 TEST(BoundingVolumeHierarchy, EntryGridAnswersEmptyCellsWithoutTests) {
   const Mesh mesh = geometry::icosphere(4, radius);
   const BoundingVolumeHierarchy tree(mesh.vertices, mesh.triangles);
