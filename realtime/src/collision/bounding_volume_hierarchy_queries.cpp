@@ -400,13 +400,19 @@ struct BoundingVolumeHierarchy::Traversal {
     Vector3d middle, half;
   };
 
-  /// Tests a leaf's triangles: four at a time in float (leaf_candidates), which rejects most of
-  /// them, then the double test on the rest. Every triangle counts as tested.
-  template <bool count>
-  static void hit_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
-                       const FloatRay& float_ray, Nearest& nearest, Tally& tally) noexcept {
-    if constexpr (count) tally.triangles += size;
-    const Vector3d* corners = bvh.corners_.data();
+  /// The float form of a ray for the leaves' float test (unusable when the settings turn it off).
+  static FloatRay leaf_ray(const BoundingVolumeHierarchy& bvh, const WatertightRay& ray) noexcept {
+    FloatRay float_ray(ray, bvh.leaf_corners_origin_, bvh.leaf_corners_extent_);
+    float_ray.usable = float_ray.usable && bvh.settings_.float_leaf_test;
+    return float_ray;
+  }
+
+  /// Calls visit(slot) in slot order for the triangles of the leaf [first, first + size) that the
+  /// float test (leaf_candidates, four at a time) cannot set aside, until visit returns true;
+  /// returns whether it did. The others are those the double test would reject.
+  template <class Visit>
+  static bool visit_leaf_candidates(const BoundingVolumeHierarchy& bvh, int first, int size,
+                                    const FloatRay& float_ray, Visit&& visit) noexcept {
     const float* rows = bvh.leaf_corners_.data() + 9 * static_cast<std::size_t>(first);
     for (int chunk = 0; chunk < size; chunk += 4) {
       const int valid = (1 << std::min(4, size - chunk)) - 1;
@@ -414,17 +420,30 @@ struct BoundingVolumeHierarchy::Traversal {
       while (candidates != 0) {
         const int slot = first + chunk + __builtin_ctz(static_cast<unsigned>(candidates));
         candidates &= candidates - 1;
-        Crossing crossing;
-        if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) continue;
-        // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
-        if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
-          nearest.t = crossing.t;
-          nearest.slot = slot;
-          nearest.half = (0.5 * crossing.t) * ray.direction;
-          nearest.middle = ray.origin + nearest.half;
-        }
+        if (visit(slot)) return true;
       }
     }
+    return false;
+  }
+
+  /// Tests a leaf's triangles: float first, then the double test. Every triangle counts as tested.
+  template <bool count>
+  static void hit_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
+                       const FloatRay& float_ray, Nearest& nearest, Tally& tally) noexcept {
+    if constexpr (count) tally.triangles += size;
+    const Vector3d* corners = bvh.corners_.data();
+    visit_leaf_candidates(bvh, first, size, float_ray, [&](int slot) {
+      Crossing crossing;
+      if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) return false;
+      // The end of the segment is inclusive until a hit; then only strictly nearer hits count.
+      if (crossing.t >= 0 && (crossing.t < nearest.t || (nearest.slot < 0 && crossing.t == nearest.t))) {
+        nearest.t = crossing.t;
+        nearest.slot = slot;
+        nearest.half = (0.5 * crossing.t) * ray.direction;
+        nearest.middle = ray.origin + nearest.half;
+      }
+      return false;
+    });
   }
 
   /// First hit of origin + t·direction for 0 ≤ t ≤ t_end: all children of an entered node are
@@ -531,8 +550,7 @@ struct BoundingVolumeHierarchy::Traversal {
                             double t_end, double metres_per_t, QueryCounters* counters) noexcept {
     Tally tally;
     const WatertightRay ray(origin, direction);
-    FloatRay float_ray(ray, bvh.leaf_corners_origin_, bvh.leaf_corners_extent_);
-    float_ray.usable = float_ray.usable && bvh.settings_.float_leaf_test;
+    const FloatRay float_ray = leaf_ray(bvh, ray);
     const Nearest nearest = with_nodes(bvh, [&](const auto& all) {
       return first_hit<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, float_ray, t_end, tally);
     });
@@ -646,35 +664,46 @@ struct BoundingVolumeHierarchy::Traversal {
   enum class Parity { even, odd, on_edge, on_surface };
 
   /// Crossings of origin + t·direction, surface_t < t ≤ t_end, in one leaf: flips `odd` per
-  /// crossing; stops at the first ambiguous one.
+  /// crossing; stops at the first ambiguous one. The float test sets aside only triangles whose
+  /// double test fails on the signs, before it could report a ray in their plane.
   template <bool count>
   static Parity parity_in_leaf(const BoundingVolumeHierarchy& bvh, int first, int size, const WatertightRay& ray,
-                               double t_end, double surface_t, bool& odd, Tally& tally) noexcept {
+                               const FloatRay& float_ray, double t_end, double surface_t, bool& odd,
+                               Tally& tally) noexcept {
+    if constexpr (count) tally.triangles += size;
     const Vector3d* corners = bvh.corners_.data();
-    for (int slot = first; slot < first + size; ++slot) {
-      if constexpr (count) ++tally.triangles;
+    Parity result = Parity::even;
+    visit_leaf_candidates(bvh, first, size, float_ray, [&](int slot) {
       Crossing crossing;
       if (!intersect(ray, corners[3 * slot], corners[3 * slot + 1], corners[3 * slot + 2], crossing)) {
-        if (crossing.in_plane) return Parity::on_edge;
-        continue;
+        if (crossing.in_plane) result = Parity::on_edge;
+        return crossing.in_plane;
       }
-      if (std::abs(crossing.t) <= surface_t) return Parity::on_surface;
-      if (crossing.t < 0 || crossing.t > t_end) continue;
-      if (crossing.on_edge) return Parity::on_edge;
+      if (std::abs(crossing.t) <= surface_t) {
+        result = Parity::on_surface;
+        return true;
+      }
+      if (crossing.t < 0 || crossing.t > t_end) return false;
+      if (crossing.on_edge) {
+        result = Parity::on_edge;
+        return true;
+      }
       odd = !odd;
-    }
-    return Parity::even;
+      return false;
+    });
+    return result;
   }
 
   /// Crossings of the whole segment, mod 2 (no ordering or pruning: every crossing counts).
   template <class Node, bool count>
   static Parity parity(const BoundingVolumeHierarchy& bvh, const std::vector<Node>& all, const WatertightRay& ray,
-                       double t_end, double surface_t, Tally& tally) noexcept {
+                       const FloatRay& float_ray, double t_end, double surface_t, Tally& tally) noexcept {
     constexpr int width = Node::width;
     bool odd = false;
     if (all.empty()) {
       const Parity result =
-          parity_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, t_end, surface_t, odd, tally);
+          parity_in_leaf<count>(bvh, 0, static_cast<int>(bvh.slot_triangle_.size()), ray, float_ray, t_end, surface_t,
+                                odd, tally);
       if (result != Parity::even) return result;
       return odd ? Parity::odd : Parity::even;
     }
@@ -691,7 +720,8 @@ struct BoundingVolumeHierarchy::Traversal {
       for (int k = 0; k < width; ++k) {
         if ((mask >> k & 1) == 0) continue;
         if (node.count[k] > 0) {
-          const Parity result = parity_in_leaf<count>(bvh, node.child[k], node.count[k], ray, t_end, surface_t, odd, tally);
+          const Parity result =
+              parity_in_leaf<count>(bvh, node.child[k], node.count[k], ray, float_ray, t_end, surface_t, odd, tally);
           if (result != Parity::even) return result;
         } else if (next < 0) {
           next = node.child[k];
@@ -735,8 +765,10 @@ struct BoundingVolumeHierarchy::Traversal {
         t_end = std::min(t_end, (face - local[i]) / local_direction[i]);
       }
       const WatertightRay ray(x, direction);
+      const FloatRay float_ray = leaf_ray(bvh, ray);
       const Parity result = with_nodes(bvh, [&](const auto& all) {
-        return parity<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, t_end, surface_t, tally);
+        return parity<typename std::decay_t<decltype(all)>::value_type, count>(bvh, all, ray, float_ray, t_end,
+                                                                               surface_t, tally);
       });
       if (result == Parity::odd) return true;
       if (result == Parity::even) return false;

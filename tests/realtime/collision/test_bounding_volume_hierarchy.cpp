@@ -776,12 +776,13 @@ TEST(BoundingVolumeHierarchy, FloatBoxTestsPruneNoHitFarFromTheOrigin) {
 }
 
 // The leaves' float pre-test may set a triangle aside only when the double test rejects it, so
-// trees with and without it answer every segment the same to the bit. The segments cross the
-// surface obliquely just inside and just outside every edge (down to 1e-12 of its length) and
-// through its corners, where the edge functions are as small as the float test's rounding; the
-// surface is also moved 1 km from the origin, where float's spacing (6e-5 m) is a few percent of
-// an edge. (With the rounding bound set to zero, answers differ here: segments just inside an
-// edge lose their hit.)
+// trees with and without it give the same answers to the bit. The segments cross the surface
+// obliquely just inside and just outside every edge (down to 1e-12 of its length) and through
+// its corners, where the edge functions are as small as the float test's rounding; points just
+// inside and outside ask contains(), whose parity rays take the same test. The surface is also
+// moved 1 km from the origin, where float's spacing (6e-5 m) is a few percent of an edge. (With
+// the rounding bound set to zero, answers differ here: segments just inside an edge lose their
+// hit.)
 TEST(BoundingVolumeHierarchy, FloatLeafTestChangesNoAnswer) {
   struct Shape {
     BoundingVolume volume;
@@ -825,6 +826,12 @@ TEST(BoundingVolumeHierarchy, FloatLeafTestChangesNoAnswer) {
               ASSERT_EQ(hit.triangle, expected.triangle);
               ASSERT_EQ(hit.distance_m, expected.distance_m);
             }
+          }
+          // Inside/outside just off the edge's midpoint: the parity rays' leaves take the float test too.
+          for (double e : {1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6, 1e-3, -1e-3}) {
+            const Vector3d x = 0.5 * (a + b) + 1e-3 * length * inward + e * length * n;
+            ASSERT_EQ(with_float.contains(x), double_only.contains(x))
+                << "triangle " << t << ", edge " << k << ", e " << e << ", offset " << offset.transpose();
           }
         }
       }
