@@ -54,11 +54,11 @@ struct BvhSettings {
   /// together hold every triangle within that reach of the cell. A cell with no triangle within
   /// reach answers "no hit" without any test.
   double entry_grid_cell = 2;
-  /// Segment and ray queries first test a leaf's triangles four at a time in float, with a
-  /// bound on the rounding that makes the test conservative: it sets aside only triangles the
-  /// double test would reject, and the double test decides the rest, so the answers are the
-  /// same to the bit either way. false tests every triangle in double only (for comparison:
-  /// collision_benchmark times both).
+  /// Segment and ray queries (and contains()'s parity rays) first test a leaf's triangles four
+  /// at a time in float, with a bound on the rounding that makes the test conservative: it sets
+  /// aside only triangles the double test would reject, and the double test decides the rest,
+  /// so the answers are the same to the bit either way. false tests every triangle in double
+  /// only (for comparison: collision_benchmark times both).
   bool float_leaf_test = true;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -264,7 +264,7 @@ class BoundingVolumeHierarchy final : public SurfaceQueries {
   std::vector<Eigen::Vector3d> corners_;  ///< 3 per slot (leaf order: a leaf's triangles are contiguous)
   /// The leaves' slot ranges [first, first + count), in slot order.
   std::vector<std::pair<int, int>> leaf_slots_;
-  /// The corners again, in float and relative to leaf_corners_origin_, for the segment queries'
+  /// The corners again, in float and relative to leaf_corners_origin_, for the ray queries'
   /// conservative pre-test of a leaf's triangles four at a time (exact answers still come from
   /// the double test). A leaf of count slots starting at slot s occupies the 9 · count floats
   /// from 9 s, row 3 k + i (corner k, axis i) holding its count slots' values; three padding
