@@ -17,8 +17,10 @@
 #include "touchstone/geometry/icosphere.hpp"
 #include "touchstone/geometry/triangle_surface.hpp"
 #include "touchstone/realtime/mfs/collocation.hpp"
+#include "touchstone/realtime/mfs/enriched_galerkin.hpp"
 #include "touchstone/realtime/mfs/linear_solvers.hpp"
 #include "touchstone/realtime/mfs/local_model.hpp"
+#include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 
@@ -303,6 +305,54 @@ void BM_BuildEnriched(benchmark::State& state) {
   build(state, settings);
 }
 
+// The enriched build's first phase (its `sprinkle_ms` counter), part by part: the surface fitted
+// around the contact, the even node cloud on it, and the quadratures. The local surface's reach
+// is the build's, 1.3 L.
+constexpr double local_surface_reach_m = 1.3 * local_radius_m;
+
+void BM_EnrichedLocalSurface(benchmark::State& state) {
+  const ToolContact contact = pole_contact();
+  for (auto _ : state) {
+    const touchstone::realtime::mfs::LocalSurface surface(organ(), contact.point, local_surface_reach_m);
+    benchmark::DoNotOptimize(surface.fitted());
+  }
+}
+
+void BM_EnrichedSprinkle(benchmark::State& state) {
+  const ToolContact contact = pole_contact();
+  const touchstone::realtime::mfs::LocalSurface surface(organ(), contact.point, local_surface_reach_m);
+  double nodes = 0;
+  for (auto _ : state) {
+    const auto cloud =
+        touchstone::realtime::mfs::sprinkle_even_nodes(surface, contact, static_cast<int>(state.range(0)), local_radius_m);
+    nodes = static_cast<double>(cloud.size());
+    benchmark::DoNotOptimize(cloud.positions.data());
+  }
+  state.counters["N"] = nodes;
+}
+
+void BM_EnrichedQuadratures(benchmark::State& state) {
+  namespace mfs = touchstone::realtime::mfs;
+  const ToolContact contact = pole_contact();
+  const mfs::LocalSurface surface(organ(), contact.point, local_surface_reach_m);
+  const mfs::EnrichedSettings settings = mfs::quadratures_for_node_count(
+      mfs::settings_for_material(mfs::EnrichedSettings{}, tissue()), static_cast<std::size_t>(state.range(0)));
+  mfs::EnrichedQuadratures quadratures;
+  for (auto _ : state) {
+    mfs::PunchFrame frame;
+    std::string failure;
+    if (!mfs::enriched_quadratures(surface, contact, local_radius_m, settings, mfs::PatchQuadrature{}, quadratures, frame,
+                                   failure)) {
+      state.SkipWithError(failure.c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(quadratures.volume.points.data());
+  }
+  state.counters["volume_points"] = static_cast<double>(quadratures.volume.points.size());
+  state.counters["boundary_points"] = static_cast<double>(
+      quadratures.patch.points.size() + quadratures.free_surface.points.size() + quadratures.cut.points.size());
+}
+
 /// The same build with every shell of the volume rule at the full angular counts (the rule
 /// before the inner shells were coarsened): the saving, measured in the same run.
 void BM_BuildEnrichedUniformShells(benchmark::State& state) {
@@ -369,6 +419,9 @@ void BM_BuildEnrichedCoarseRule(benchmark::State& state) {
 BENCHMARK(BM_PaperMode34)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_BuildGalerkin)->Arg(34)->Arg(100)->Arg(200)->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnriched)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EnrichedLocalSurface)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnrichedSprinkle)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnrichedQuadratures)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_BuildEnrichedUniformShells)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnrichedProjected)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnrichedBonded)->Arg(34)->Arg(60)->Unit(benchmark::kMillisecond);

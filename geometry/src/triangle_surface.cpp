@@ -147,11 +147,44 @@ void TriangleSurface::build_tree() {
     tasks.push_back({child + 1, middle, task.end});
   }
 
-  // Corners in leaf order: a leaf's triangles are contiguous in memory.
+  // Corners in leaf order: a leaf's triangles are contiguous in memory. Each vertex is owned by
+  // its first corner in that order, so that vertices_within() meets it once.
   corners_.resize(3 * static_cast<std::size_t>(n));
+  owns_vertex_.assign(3 * static_cast<std::size_t>(n), 0);
+  std::vector<char> owned(vertices_.size(), 0);
   for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) corners_[3 * i + k] = vertices_[triangles_[order_[i]][k]];
+    for (int k = 0; k < 3; ++k) {
+      const int v = triangles_[order_[i]][k];
+      corners_[3 * i + k] = vertices_[v];
+      owns_vertex_[3 * i + k] = owned[v] == 0;
+      owned[v] = 1;
+    }
   }
+}
+
+std::vector<int> TriangleSurface::vertices_within(const Vector3d& centre_m, double radius_m) const {
+  std::vector<int> found;
+  if (!centre_m.allFinite() || !(radius_m >= 0) || nodes_.empty()) return found;
+  const double reach = radius_m * radius_m;
+  // Depth first, one deferred child per level, as project() does.
+  std::array<int, max_stack> stack;
+  int size = 0;
+  stack[size++] = 0;
+  while (size > 0) {
+    const Node& node = nodes_[stack[--size]];
+    if (box_distance_squared(node.lower, node.upper, centre_m) > reach) continue;
+    if (node.count > 0) {
+      for (int corner = 3 * node.first; corner < 3 * (node.first + node.count); ++corner) {
+        if (owns_vertex_[corner] && (corners_[corner] - centre_m).squaredNorm() <= reach)
+          found.push_back(triangles_[order_[corner / 3]][corner % 3]);
+      }
+      continue;
+    }
+    stack[size++] = node.first + 1;
+    stack[size++] = node.first;
+  }
+  std::sort(found.begin(), found.end());
+  return found;
 }
 
 SurfaceProjection TriangleSurface::project(const Vector3d& x) const {

@@ -360,6 +360,37 @@ TEST(TriangleSurface, IcosphereQueriesMatchBruteForce) {
   }
 }
 
+// The local surface fit of the MFS gathers the vertices near the contact this way on every model
+// build, so it must find exactly the vertices a scan of all of them finds, in the same order.
+TEST(TriangleSurface, VerticesWithinABallMatchAScanOfEveryVertex) {
+  const double radius = 0.04;
+  const Mesh mesh = icosphere(4, radius);
+  const TriangleSurface surface = make(mesh);
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> coordinate(-1.5 * radius, 1.5 * radius);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int nonempty = 0;
+  for (int i = 0; i < 400; ++i) {
+    // Centres anywhere, or on a vertex (whose own distance is exactly zero).
+    const Vector3d centre = i % 4 == 0 ? mesh.vertices[static_cast<std::size_t>(i) % mesh.vertices.size()]
+                                       : Vector3d(coordinate(random), coordinate(random), coordinate(random));
+    // Radii from nothing to beyond the whole sphere.
+    const double reach = i % 5 == 0 ? 0.0 : 3 * radius * unit(random) * unit(random);
+    std::vector<int> expected;
+    for (int v = 0; v < static_cast<int>(mesh.vertices.size()); ++v) {
+      if ((mesh.vertices[static_cast<std::size_t>(v)] - centre).squaredNorm() <= reach * reach) expected.push_back(v);
+    }
+    ASSERT_EQ(surface.vertices_within(centre, reach), expected) << "ball " << i << ", radius " << reach;
+    nonempty += !expected.empty();
+  }
+  EXPECT_GT(nonempty, 150);
+  EXPECT_EQ(surface.vertices_within(Vector3d::Zero(), 10 * radius).size(), mesh.vertices.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(surface.vertices_within(Vector3d(nan, 0, 0), radius).empty());
+  EXPECT_TRUE(surface.vertices_within(Vector3d::Zero(), -1.0).empty());
+  EXPECT_TRUE(surface.vertices_within(Vector3d::Zero(), nan).empty());
+}
+
 TEST(TriangleSurface, UvSphereAndTorusQueriesMatchBruteForce) {
   const TriangleSurface sphere = make(uv_sphere(24, 12, 1.0));
   EXPECT_GT(check_against_brute_force(sphere, query_points(sphere, 800, 2)), 1600);

@@ -67,9 +67,8 @@ bool LocalSurface::fit(const geometry::TriangleSurface& organ, double reach_m) {
   const auto& vertices = organ.vertices();
   const auto& normals = organ.vertex_normals();
   std::vector<Eigen::Vector3d> local;
-  for (std::size_t k = 0; k < vertices.size(); ++k) {
+  for (const int k : organ.vertices_within(centre_, reach_m)) {
     const Eigen::Vector3d x = vertices[k] - centre_;
-    if (x.squaredNorm() > reach_m * reach_m) continue;
     if (normals[k].dot(normal_) < fold_cosine) return false;
     local.emplace_back(x.dot(t1_), x.dot(t2_), -x.dot(normal_));
   }

@@ -114,6 +114,10 @@ class TriangleSurface {
   bool contains(const Eigen::Vector3d& x) const;
   /// Negative inside, positive outside [m].
   double signed_distance(const Eigen::Vector3d& x) const;
+  /// The vertices v with |v − centre| ≤ radius [m], in ascending order (through the tree: the
+  /// cost follows the vertices near the ball, not the surface's size). Empty for a non-finite
+  /// centre or a negative or NaN radius.
+  std::vector<int> vertices_within(const Eigen::Vector3d& centre_m, double radius_m) const;
 
   double area_m2() const;
   double volume_m3() const;
@@ -131,6 +135,7 @@ class TriangleSurface {
   std::vector<Eigen::Vector3d> face_normals_;  ///< unit, one per triangle
   std::vector<Eigen::Vector3d> edge_normals_;  ///< 3 per triangle; edge k runs from corner k to k + 1
   std::vector<Eigen::Vector3d> corners_;       ///< 3 per triangle, in tree (order_) order
+  std::vector<char> owns_vertex_;              ///< per corner: the first corner (in that order) of its vertex
   std::vector<int> order_;
   std::vector<Node> nodes_;
   double area_m2_ = 0;
