@@ -306,9 +306,9 @@ void BM_BuildEnriched(benchmark::State& state) {
 }
 
 // The enriched build's first phase (its `sprinkle_ms` counter), part by part: the surface fitted
-// around the contact, the even node cloud on it, and the quadratures. The local surface's reach
-// is the build's, 1.3 L.
-constexpr double local_surface_reach_m = 1.3 * local_radius_m;
+// around the contact (with the build's reach), the even node cloud on it, and the quadratures.
+constexpr double local_surface_reach_m =
+    touchstone::realtime::mfs::enriched_surface_reach_local_radii * local_radius_m;
 
 void BM_EnrichedLocalSurface(benchmark::State& state) {
   const ToolContact contact = pole_contact();

@@ -362,7 +362,7 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
   };
   const double length = settings.sprinkling.local_radius_m;
   auto step = std::chrono::steady_clock::now();
-  const LocalSurface surface(organ, model.contact.point, 1.3 * length);
+  const LocalSurface surface(organ, model.contact.point, enriched_surface_reach_local_radii * length);
   model.cloud = sprinkle_even_nodes(surface, model.contact, settings.sprinkling.node_count, length, settings.sprinkling.seed);
   // The quadratures grow with N; the assembly takes the settings for N ≤ 40.
   EnrichedSettings enriched = settings_for_material(settings.enriched, model.material);

@@ -358,8 +358,8 @@ NodeCloud sprinkle_nodes(const geometry::TriangleSurface& organ, const ToolConta
 
 NodeCloud sprinkle_even_nodes(const geometry::TriangleSurface& organ, const ToolContact& contact, int node_count,
                               double local_radius_m, std::uint64_t seed) {
-  return sprinkle_even_nodes(LocalSurface(organ, contact.point, 1.3 * local_radius_m), contact, node_count,
-                             local_radius_m, seed);
+  const LocalSurface surface(organ, contact.point, enriched_surface_reach_local_radii * local_radius_m);
+  return sprinkle_even_nodes(surface, contact, node_count, local_radius_m, seed);
 }
 
 NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& contact, int node_count,

@@ -17,6 +17,10 @@
 
 namespace touchstone::realtime::mfs {
 
+/// The reach of the enriched model's LocalSurface, in local radii L: past the ball, so that
+/// every point of the local domain and the cut's rim lie inside the fitted patch.
+constexpr double enriched_surface_reach_local_radii = 1.3;
+
 class LocalSurface {
  public:
   /// The surface near `contact_point_m` (projected onto the organ) within `reach_m`.
