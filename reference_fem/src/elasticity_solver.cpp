@@ -20,6 +20,7 @@
 // simple), assembles its own cells, and the linear algebra is distributed.
 
 #include "touchstone/fem/elasticity_problem.hpp"
+#include "touchstone/fem/blas_kernels.hpp"
 
 #include "touchstone/meshes/msh_reader.hpp"
 
@@ -684,17 +685,56 @@ void check_petsc(PetscErrorCode code, const char* what) {
   if (code != 0) throw std::runtime_error(std::string("PETSc error in ") + what + ", code " + std::to_string(code));
 }
 
+/// A PETSc option set for the lifetime of this object, unless the user's options (command line,
+/// PETSC_OPTIONS) already give it; the database is left as it was found.
+class PetscDefaultOption {
+ public:
+  PetscDefaultOption(const char* name, const char* value) : name_(name) {
+    PetscBool given = PETSC_FALSE;
+    check_petsc(PetscOptionsHasName(nullptr, nullptr, name, &given), "PetscOptionsHasName");
+    if (given) return;
+    check_petsc(PetscOptionsSetValue(nullptr, name, value), "PetscOptionsSetValue");
+    set_ = true;
+  }
+  ~PetscDefaultOption() {
+    if (set_) PetscOptionsClearValue(nullptr, name_);
+  }
+  PetscDefaultOption(const PetscDefaultOption&) = delete;
+  PetscDefaultOption& operator=(const PetscDefaultOption&) = delete;
+
+ private:
+  const char* name_;
+  bool set_ = false;
+};
+
+/// MUMPS' names for the orderings of ICNTL(7) and INFOG(7).
+std::string mumps_ordering_name(PetscInt ordering) {
+  switch (ordering) {
+    case 0: return "AMD";
+    case 1: return "user-given";
+    case 2: return "AMF";
+    case 3: return "SCOTCH";
+    case 4: return "PORD";
+    case 5: return "METIS";
+    case 6: return "QAMD";
+    default: return "unknown (" + std::to_string(ordering) + ")";
+  }
+}
+
 /// MUMPS' sparse LDLᵀ through PETSc's Cholesky factor interface, told that the matrix is
 /// positive definite (the constrained rows keep a positive diagonal), so that it factorises
 /// without pivoting, and ordered by approximate minimum degree: at the sizes a direct solve is
-/// chosen for (the paper's Table 2 mesh, the tests' meshes) AMD's factor needs fewer operations
-/// than that of MUMPS' own choice (AMF) for the same cheap analysis, and nested dissection (PORD)
-/// spends on its analysis what its smaller factor saves (the README's Table 2 section has the
-/// phase times). A failed analysis or factorisation (MUMPS' INFOG(1) < 0) is an error naming
-/// MUMPS' codes, not a solution of NaNs.
+/// chosen for (the paper's Table 2 mesh, the tests' meshes) AMD's analysis is a quarter of that of
+/// MUMPS' automatic choice here, nested dissection (PORD), whose smaller factor does not win
+/// back the difference (the README's Table 2 section has the phase times). A failed analysis or factorisation (MUMPS' INFOG(1) < 0) is an error naming
+/// MUMPS' codes, not a solution of NaNs. The solver name records the ordering MUMPS used
+/// (INFOG(7)), not the one asked for.
 template <>
 void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
-  constexpr PetscInt mumps_ordering = 7, approximate_minimum_degree = 0;
+  // PETSc 3.18 initialises MUMPS at the analysis and then sets its controls from the options
+  // database, so an ICNTL set on the factor matrix before (MatMumpsSetIcntl) is lost: the
+  // ordering goes through the database.
+  const PetscDefaultOption ordering("-mat_mumps_icntl_7", "0");  // 0: approximate minimum degree
   Mat A = system_matrix_.petsc_matrix();
   KSP ksp;
   PC pc;
@@ -710,7 +750,6 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
   check_petsc(PCFactorSetUpMatSolverType(pc), "PCFactorSetUpMatSolverType");
   check_petsc(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
-  check_petsc(MatMumpsSetIcntl(factor, mumps_ordering, approximate_minimum_degree), "MatMumpsSetIcntl");
   check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
   check_petsc(KSPSolve(ksp, system_rhs_, solution_), "KSPSolve");
   KSPConvergedReason reason;
@@ -725,7 +764,9 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
                              " (the MUMPS user guide lists the codes)");
   constraints_.distribute(solution_);
   ghosted_solution_ = solution_;
-  result_.solver_name = "PETSc MUMPS sparse LDLT (SPD, AMD ordering)";
+  PetscInt ordering_used = -1;
+  MatMumpsGetInfog(factor, 7, &ordering_used);
+  result_.solver_name = "PETSc MUMPS sparse LDLT (SPD, " + mumps_ordering_name(ordering_used) + " ordering)";
   result_.solver_iterations = 1;
 }
 
@@ -830,7 +871,8 @@ struct MpiSession::Impl {
   Utilities::MPI::MPI_InitFinalize mpi;
 };
 
-MpiSession::MpiSession(int& argc, char**& argv) : impl_(new Impl(argc, argv)) {}
+MpiSession::MpiSession(int& argc, char**& argv)
+    : impl_((restart_with_native_blas_kernels(argv), new Impl(argc, argv))) {}
 MpiSession::~MpiSession() { delete impl_; }
 unsigned int MpiSession::rank() { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
 unsigned int MpiSession::size() { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }

@@ -1,5 +1,7 @@
 #include "touchstone/studies/provenance.hpp"
 
+#include "touchstone/fem/blas_kernels.hpp"
+
 #include <touchstone/version.hpp>
 
 #include <openssl/evp.h>
@@ -76,6 +78,7 @@ std::string sha256_hex(const std::string& text) {
 
 nlohmann::json provenance(const std::string& config_text) {
   const unsigned cores = std::thread::hardware_concurrency();
+  const std::string blas_kernels = fem::loaded_openblas_core();
   return {
       {"git", version::git_hash},
       {"build_type", version::build_type},
@@ -83,6 +86,8 @@ nlohmann::json provenance(const std::string& config_text) {
       {"machine", host_name() + ", " + cpu_model() + ", " +
                       (cores == 0 ? std::string("unknown number of") : std::to_string(cores)) +
                       " cores"},
+      // The direct solver's speed depends on it: OpenBLAS's kernel set for this CPU.
+      {"blas", blas_kernels.empty() ? std::string("not OpenBLAS") : "OpenBLAS, " + blas_kernels + " kernels"},
       {"config_sha256", sha256_hex(config_text)},
       {"time_utc", utc_now_iso8601()},
       {"touchstone_version", touchstone::version::project_version},

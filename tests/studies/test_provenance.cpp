@@ -28,7 +28,7 @@ TEST(Sha256Hex, HashesEmbeddedNulBytes) {
 
 TEST(Provenance, HasAllKeys) {
   const nlohmann::json record = provenance("depth = 1\n");
-  for (const char* key : {"git", "build_type", "compiler", "machine", "config_sha256", "time_utc",
+  for (const char* key : {"git", "build_type", "compiler", "machine", "blas", "config_sha256", "time_utc",
                           "touchstone_version"}) {
     ASSERT_TRUE(record.contains(key)) << key;
     ASSERT_TRUE(record[key].is_string()) << key;

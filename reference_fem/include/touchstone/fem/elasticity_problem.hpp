@@ -140,6 +140,8 @@ ElasticitySolution solve_elasticity(const ElasticityProblem& problem,
                                     MPI_Comm communicator = MPI_COMM_WORLD);
 
 /// Initialises and finalises MPI, PETSc and SLEPc (deal.II's MPI_InitFinalize) for the program.
+/// Construct it first thing in main: before MPI starts it may restart the program once with
+/// OpenBLAS's kernels for this CPU (restart_with_native_blas_kernels, blas_kernels.hpp).
 class MpiSession {
  public:
   MpiSession(int& argc, char**& argv);
