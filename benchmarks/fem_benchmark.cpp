@@ -5,6 +5,7 @@
 //
 //   ./build/release/benchmarks/fem_benchmark                 # paper's size up to ~75K dofs
 //   TOUCHSTONE_BENCH_LARGE=1 ./build/release/benchmarks/fem_benchmark   # adds ~520K dofs
+#include "touchstone/fem/blas_kernels.hpp"
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
 
@@ -83,6 +84,9 @@ void register_cases() {
 int main(int argc, char** argv) {
   fem::MpiSession mpi(argc, argv);
   register_cases();
+  // The direct solver's time depends on them (MpiSession has restarted the program if needed).
+  const std::string blas = fem::loaded_openblas_core();
+  benchmark::AddCustomContext("blas", blas.empty() ? "not OpenBLAS" : "OpenBLAS, " + blas + " kernels");
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
