@@ -871,8 +871,10 @@ struct MpiSession::Impl {
   Utilities::MPI::MPI_InitFinalize mpi;
 };
 
-MpiSession::MpiSession(int& argc, char**& argv)
-    : impl_((restart_with_native_blas_kernels(argv), new Impl(argc, argv))) {}
+MpiSession::MpiSession(int& argc, char**& argv) {
+  restart_with_native_blas_kernels(argv);  // before MPI starts: an MPI process cannot restart
+  impl_ = new Impl(argc, argv);
+}
 MpiSession::~MpiSession() { delete impl_; }
 unsigned int MpiSession::rank() { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
 unsigned int MpiSession::size() { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }

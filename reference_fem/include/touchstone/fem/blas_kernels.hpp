@@ -37,7 +37,7 @@ std::string loaded_openblas_core();
 /// `better_openblas_core` says so. Returns without doing anything when OPENBLAS_CORETYPE is
 /// already set (by the user, or by the restart: so it happens at most once), when the BLAS is
 /// not OpenBLAS, or when OpenBLAS's choice stands; returns after a warning on stderr when the
-/// restart fails. Call it first thing in main, before anything is printed or started.
+/// restart fails. Call it before MPI starts and before anything is printed (MpiSession does).
 void restart_with_native_blas_kernels(char** argv);
 
 }  // namespace touchstone::fem

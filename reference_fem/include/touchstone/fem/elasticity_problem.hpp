@@ -160,7 +160,7 @@ class MpiSession {
 
  private:
   struct Impl;
-  Impl* impl_;
+  Impl* impl_ = nullptr;
 };
 
 std::string to_string(LinearSolver solver);
