@@ -5,6 +5,7 @@
 //
 //   ./build/release/benchmarks/fem_benchmark                 # paper's size up to ~75K dofs
 //   TOUCHSTONE_BENCH_LARGE=1 ./build/release/benchmarks/fem_benchmark   # adds ~520K dofs
+//   mpirun -np 2 ./build/release/benchmarks/fem_benchmark    # the solves over two ranks (rank 0 reports)
 #include "touchstone/fem/blas_kernels.hpp"
 #include "touchstone/fem/elasticity_problem.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
@@ -14,12 +15,14 @@
 #include <cstdlib>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace {
 
 using namespace touchstone;
 
-/// The B2 geometry of studies/configs/b2_reference.toml at refinement `level`.
+/// The B2 geometry of studies/configs/b2_reference.toml at refinement `level`, meshed by rank 0
+/// alone (under mpirun every rank would otherwise write the same file at once).
 const std::string& b2_mesh(int level) {
   static std::map<int, std::string> paths;
   auto it = paths.find(level);
@@ -33,7 +36,8 @@ const std::string& b2_mesh(int level) {
   parameters.max_size_m = 0.01;
   parameters.refinement = level;
   const std::string path = "fem_benchmark_b2_L" + std::to_string(level) + ".msh";
-  meshes::generate_mesh(parameters, path);
+  if (fem::MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
+  fem::MpiSession::barrier();
   return paths[level] = path;
 }
 
@@ -79,6 +83,13 @@ void register_cases() {
   }
 }
 
+/// Under mpirun every rank runs the cases (the solves are collective); only rank 0 prints them.
+class SilentReporter : public benchmark::BenchmarkReporter {
+ public:
+  bool ReportContext(const Context&) override { return true; }
+  void ReportRuns(const std::vector<Run>&) override {}
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -89,7 +100,12 @@ int main(int argc, char** argv) {
   benchmark::AddCustomContext("blas", blas.empty() ? "not OpenBLAS" : "OpenBLAS, " + blas + " kernels");
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
+  if (fem::MpiSession::rank() == 0) {
+    benchmark::RunSpecifiedBenchmarks();
+  } else {
+    SilentReporter silent;
+    benchmark::RunSpecifiedBenchmarks(&silent);
+  }
   benchmark::Shutdown();
   return 0;
 }

@@ -58,6 +58,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -707,6 +708,37 @@ class PetscDefaultOption {
   bool set_ = false;
 };
 
+/// A PETSc option set to `value` for the lifetime of this object, whatever the database held;
+/// the previous value (or its absence) is put back afterwards.
+class PetscScopedOption {
+ public:
+  PetscScopedOption(const char* name, const std::string& value) : name_(name) {
+    char previous[256] = {0};
+    PetscBool found = PETSC_FALSE;
+    check_petsc(PetscOptionsGetString(nullptr, nullptr, name, previous, sizeof previous, &found), "PetscOptionsGetString");
+    if (found) previous_ = std::string(previous);
+    check_petsc(PetscOptionsSetValue(nullptr, name, value.c_str()), "PetscOptionsSetValue");
+  }
+  ~PetscScopedOption() {
+    if (previous_)
+      PetscOptionsSetValue(nullptr, name_, previous_->c_str());
+    else
+      PetscOptionsClearValue(nullptr, name_);
+  }
+  PetscScopedOption(const PetscScopedOption&) = delete;
+  PetscScopedOption& operator=(const PetscScopedOption&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> previous_;
+};
+
+/// MUMPS' errors whose remedy, in its user guide, is a larger ICNTL(14): a workspace sized from
+/// the analysis's estimate that the factorisation or the solution outgrew.
+bool mumps_workspace_too_small(PetscInt infog1) {
+  return infog1 == -8 || infog1 == -9 || infog1 == -11 || infog1 == -12 || infog1 == -14 || infog1 == -15;
+}
+
 /// MUMPS' names for the orderings of ICNTL(7) and INFOG(7).
 std::string mumps_ordering_name(PetscInt ordering) {
   switch (ordering) {
@@ -726,48 +758,70 @@ std::string mumps_ordering_name(PetscInt ordering) {
 /// without pivoting, and ordered by approximate minimum degree: at the sizes a direct solve is
 /// chosen for (the paper's Table 2 mesh, the tests' meshes) AMD's analysis is a quarter of that of
 /// MUMPS' automatic choice here, nested dissection (PORD), whose smaller factor does not win
-/// back the difference (the README's Table 2 section has the phase times). A failed analysis or factorisation (MUMPS' INFOG(1) < 0) is an error naming
-/// MUMPS' codes, not a solution of NaNs. The solver name records the ordering MUMPS used
+/// back the difference (the README's Table 2 section has the phase times). A workspace that the
+/// factorisation outgrows is enlarged and the factorisation repeated; any other failed analysis
+/// or factorisation (MUMPS' INFOG(1) < 0) is an error naming MUMPS' codes, not a solution of NaNs. The solver name records the ordering MUMPS used
 /// (INFOG(7)), not the one asked for.
 template <>
 void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   // PETSc 3.18 initialises MUMPS at the analysis and then sets its controls from the options
   // database, so an ICNTL set on the factor matrix before (MatMumpsSetIcntl) is lost: the
-  // ordering goes through the database.
+  // ordering and the workspace go through the database.
   const PetscDefaultOption ordering("-mat_mumps_icntl_7", "0");  // 0: approximate minimum degree
   Mat A = system_matrix_.petsc_matrix();
-  KSP ksp;
-  PC pc;
-  Mat factor;
-  check_petsc(KSPCreate(comm_, &ksp), "KSPCreate");
-  // Destroyed on every way out, a thrown PETSc error included.
-  const std::unique_ptr<KSP, void (*)(KSP*)> destroy_ksp(&ksp, [](KSP* k) { KSPDestroy(k); });
   check_petsc(MatSetOption(A, MAT_SPD, PETSC_TRUE), "MatSetOption");
-  check_petsc(KSPSetOperators(ksp, A, A), "KSPSetOperators");
-  check_petsc(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
-  check_petsc(KSPGetPC(ksp, &pc), "KSPGetPC");
-  check_petsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
-  check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-  check_petsc(PCFactorSetUpMatSolverType(pc), "PCFactorSetUpMatSolverType");
-  check_petsc(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
-  check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
-  check_petsc(KSPSolve(ksp, system_rhs_, solution_), "KSPSolve");
-  KSPConvergedReason reason;
-  KSPGetConvergedReason(ksp, &reason);
-  PetscInt infog1 = 0, infog2 = 0;
-  MatMumpsGetInfog(factor, 1, &infog1);
-  MatMumpsGetInfog(factor, 2, &infog2);
-  if (reason < 0 || infog1 < 0)
-    throw std::runtime_error("MUMPS LDLT failed on the " + std::to_string(dof_handler_.n_dofs()) + "-dof system of " +
-                             problem_.mesh_path + ": INFOG(1) = " + std::to_string(infog1) + ", INFOG(2) = " +
-                             std::to_string(infog2) + ", PETSc reason " + std::to_string(reason) +
-                             " (the MUMPS user guide lists the codes)");
-  constraints_.distribute(solution_);
-  ghosted_solution_ = solution_;
-  PetscInt ordering_used = -1;
-  MatMumpsGetInfog(factor, 7, &ordering_used);
-  result_.solver_name = "PETSc MUMPS sparse LDLT (SPD, " + mumps_ordering_name(ordering_used) + " ordering)";
-  result_.solver_iterations = 1;
+  // MUMPS sizes its workspace from the analysis's estimate plus ICNTL(14) percent. With several
+  // processes its dynamic scheduling can outgrow that (INFOG(1) = -9, seen on a B2 mesh of the
+  // paper's size under two ranks, for one of its partitions): the factorisation is then repeated
+  // with the relaxation doubled, a few times, before it is reported as a failure.
+  constexpr int max_workspace_retries = 4;
+  std::optional<PetscScopedOption> workspace;
+  PetscInt relaxation_percent = -1;  // -1: MUMPS' own (or the user's) ICNTL(14)
+  for (int attempt = 0;; ++attempt) {
+    KSP ksp;
+    PC pc;
+    Mat factor;
+    check_petsc(KSPCreate(comm_, &ksp), "KSPCreate");
+    // Destroyed on every way out, a thrown PETSc error included.
+    const std::unique_ptr<KSP, void (*)(KSP*)> destroy_ksp(&ksp, [](KSP* k) { KSPDestroy(k); });
+    check_petsc(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+    check_petsc(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
+    check_petsc(KSPGetPC(ksp, &pc), "KSPGetPC");
+    check_petsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
+    check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+    check_petsc(PCFactorSetUpMatSolverType(pc), "PCFactorSetUpMatSolverType");
+    check_petsc(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
+    check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
+    check_petsc(KSPSolve(ksp, system_rhs_, solution_), "KSPSolve");
+    KSPConvergedReason reason;
+    KSPGetConvergedReason(ksp, &reason);
+    PetscInt infog1 = 0, infog2 = 0, used_percent = 0;
+    MatMumpsGetInfog(factor, 1, &infog1);
+    MatMumpsGetInfog(factor, 2, &infog2);
+    MatMumpsGetIcntl(factor, 14, &used_percent);
+    if (mumps_workspace_too_small(infog1) && attempt < max_workspace_retries) {
+      relaxation_percent = 2 * std::max<PetscInt>(used_percent, 10);
+      workspace.reset();
+      workspace.emplace("-mat_mumps_icntl_14", std::to_string(relaxation_percent));
+      continue;
+    }
+    if (reason < 0 || infog1 < 0)
+      throw std::runtime_error("MUMPS LDLT failed on the " + std::to_string(dof_handler_.n_dofs()) + "-dof system of " +
+                               problem_.mesh_path + ": INFOG(1) = " + std::to_string(infog1) + ", INFOG(2) = " +
+                               std::to_string(infog2) + ", PETSc reason " + std::to_string(reason) + ", ICNTL(14) = " +
+                               std::to_string(used_percent) + " % after " + std::to_string(attempt + 1) +
+                               (attempt == 0 ? " attempt" : " attempts") + " (the MUMPS user guide lists the codes)");
+    constraints_.distribute(solution_);
+    ghosted_solution_ = solution_;
+    PetscInt ordering_used = -1;
+    MatMumpsGetInfog(factor, 7, &ordering_used);
+    result_.solver_name = "PETSc MUMPS sparse LDLT (SPD, " + mumps_ordering_name(ordering_used) + " ordering" +
+                          (relaxation_percent > 0 ? ", workspace ICNTL(14) = " + std::to_string(relaxation_percent) + " %"
+                                                  : std::string()) +
+                          ")";
+    result_.solver_iterations = 1;
+    return;
+  }
 }
 
 /// Every linear solver's answer is checked before anything is derived from it: a NaN or an

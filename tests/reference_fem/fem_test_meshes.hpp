@@ -104,6 +104,22 @@ inline std::string coarse_hemisphere_mesh(const std::string& name) {
   return path;
 }
 
+/// The B2 mesh of fem_benchmark's level 0 (R = 50 mm, a = 2.5 mm, edge a/4 at the patch rim):
+/// the paper's Table 2 size, 12,642 P2 dofs.
+inline std::string paper_size_b2_mesh(const std::string& name) {
+  meshes::MeshParameters parameters;
+  parameters.benchmark = meshes::Benchmark::B2;
+  parameters.body_radius_m = 0.05;
+  parameters.tool_radius_m = 0.0025;
+  parameters.edge_size_m = 0.0025 / 4;
+  parameters.size_growth = 0.5;
+  parameters.max_size_m = 0.01;
+  const std::string path = private_path(name);
+  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
+  MpiSession::barrier();
+  return path;
+}
+
 /// The level-0 mesh of studies/configs/b3_reference.toml's first family: B3 (R = 50 mm, a = 2.5 mm,
 /// L = 5a = 12.5 mm), edge size a/16 graded as d^(3/4), max 2 mm. About 24k P2 dofs.
 inline std::string b3_ladder_level0_mesh(const std::string& name) {

@@ -55,6 +55,27 @@ TEST(ParallelConsistencyMixed, DistributedSolveEqualsSerialSolve) {
   expect_distributed_equals_serial(problem);
 }
 
+// The paper-size B2 problem of the FEM benchmark (a/4 at the patch rim), solved three times in
+// one process under two ranks, as the benchmark's runs do. Each solve partitions the mesh anew
+// and the partitions differ; on the third, MUMPS' factorisation outgrew the workspace its
+// analysis had estimated (INFOG(1) = -9). The solver must enlarge the workspace and factorise
+// again, and every solve must give the same force.
+TEST(ParallelDirectSolve, RepeatedSolvesOfThePaperSizeMeshSucceedAndAgree) {
+  ASSERT_GE(MpiSession::size(), 2u) << "run this test with mpirun -np 2";
+  ElasticityProblem problem;
+  problem.mesh_path = testing::paper_size_b2_mesh("paper_size_b2");
+  problem.punch = RigidPunch{2.5e-4, {0, 0, -1}, geometry::ContactCondition::frictionless};
+  problem.solver.solver = LinearSolver::direct_mumps;
+  const ElasticitySolution first = solve_elasticity(problem, MPI_COMM_WORLD);
+  EXPECT_GT(first.force_N.norm(), 0.0);
+  for (int repeat = 1; repeat < 3; ++repeat) {
+    const ElasticitySolution again = solve_elasticity(problem, MPI_COMM_WORLD);
+    EXPECT_EQ(again.dof_count, first.dof_count);
+    // One matrix factorised in different orders: equal to rounding.
+    EXPECT_LT((again.force_N - first.force_N).norm(), 1e-10 * first.force_N.norm()) << "solve " << repeat + 1;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Solvers, ParallelConsistency,
                          ::testing::Values(LinearSolver::cg_amg_trilinos, LinearSolver::cg_gamg_petsc,
                                            LinearSolver::direct_mumps),
