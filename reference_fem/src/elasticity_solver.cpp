@@ -760,8 +760,8 @@ std::string mumps_ordering_name(PetscInt ordering) {
 /// MUMPS' automatic choice here, nested dissection (PORD), whose smaller factor does not win
 /// back the difference (the README's Table 2 section has the phase times). A workspace that the
 /// factorisation outgrows is enlarged and the factorisation repeated; any other failed analysis
-/// or factorisation (MUMPS' INFOG(1) < 0) is an error naming MUMPS' codes, not a solution of NaNs. The solver name records the ordering MUMPS used
-/// (INFOG(7)), not the one asked for.
+/// or factorisation (MUMPS' INFOG(1) < 0) is an error naming MUMPS' codes, not a solution of
+/// NaNs. The solver name records the ordering MUMPS used (INFOG(7)), not the one asked for.
 template <>
 void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   // PETSc 3.18 initialises MUMPS at the analysis and then sets its controls from the options
@@ -775,7 +775,7 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
   // paper's size under two ranks, for one of its partitions): the factorisation is then repeated
   // with the relaxation doubled, a few times, before it is reported as a failure.
   constexpr int max_workspace_retries = 4;
-  std::optional<PetscScopedOption> workspace;
+  std::optional<PetscScopedOption> workspace;  // emplacing a new value first restores the previous one
   PetscInt relaxation_percent = -1;  // -1: MUMPS' own (or the user's) ICNTL(14)
   for (int attempt = 0;; ++attempt) {
     KSP ksp;
@@ -801,7 +801,6 @@ void ElasticitySolver<PetscAlgebra>::solve_with_mumps() {
     MatMumpsGetIcntl(factor, 14, &used_percent);
     if (mumps_workspace_too_small(infog1) && attempt < max_workspace_retries) {
       relaxation_percent = 2 * std::max<PetscInt>(used_percent, 10);
-      workspace.reset();
       workspace.emplace("-mat_mumps_icntl_14", std::to_string(relaxation_percent));
       continue;
     }
