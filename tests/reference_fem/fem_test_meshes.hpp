@@ -21,6 +21,15 @@ inline std::string private_path(const std::string& name) {
   return name + "-" + test + ".msh";
 }
 
+/// Meshes `parameters` into the test's private path: rank 0 writes, every rank waits for the file
+/// (ranks writing one file at once leave it incomplete).
+inline std::string mesh_on_rank_zero(const meshes::MeshParameters& parameters, const std::string& name) {
+  const std::string path = private_path(name);
+  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
+  MpiSession::barrier();
+  return path;
+}
+
 /// Unit cube [0,1]³ with element size h, faces x_min … z_max. Rank 0 writes, all ranks wait.
 inline std::string unit_cube_mesh(double h, const std::string& name) {
   meshes::MeshParameters parameters;
@@ -28,10 +37,7 @@ inline std::string unit_cube_mesh(double h, const std::string& name) {
   parameters.box_size_m = {{1.0, 1.0, 1.0}};
   parameters.edge_size_m = h;
   parameters.max_size_m = h;
-  const std::string path = private_path(name);
-  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
-  MpiSession::barrier();
-  return path;
+  return mesh_on_rank_zero(parameters, name);
 }
 
 /// The patch-test field u = G x + c [m], with a full (non-symmetric) G and tr G ≠ 0.
@@ -98,10 +104,7 @@ inline std::string coarse_hemisphere_mesh(const std::string& name) {
   parameters.edge_size_m = 0.0025;
   parameters.size_growth = 0.5;
   parameters.max_size_m = 0.02;
-  const std::string path = private_path(name);
-  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
-  MpiSession::barrier();
-  return path;
+  return mesh_on_rank_zero(parameters, name);
 }
 
 /// The B2 mesh of fem_benchmark's level 0 (R = 50 mm, a = 2.5 mm, edge a/4 at the patch rim):
@@ -114,10 +117,7 @@ inline std::string paper_size_b2_mesh(const std::string& name) {
   parameters.edge_size_m = 0.0025 / 4;
   parameters.size_growth = 0.5;
   parameters.max_size_m = 0.01;
-  const std::string path = private_path(name);
-  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
-  MpiSession::barrier();
-  return path;
+  return mesh_on_rank_zero(parameters, name);
 }
 
 /// The level-0 mesh of studies/configs/b3_reference.toml's first family: B3 (R = 50 mm, a = 2.5 mm,
@@ -132,10 +132,7 @@ inline std::string b3_ladder_level0_mesh(const std::string& name) {
   parameters.size_growth = 0.5;
   parameters.size_exponent = 0.75;
   parameters.max_size_m = 0.002;
-  const std::string path = private_path(name);
-  if (MpiSession::rank() == 0) meshes::generate_mesh(parameters, path);
-  MpiSession::barrier();
-  return path;
+  return mesh_on_rank_zero(parameters, name);
 }
 
 }  // namespace touchstone::fem::testing
