@@ -32,6 +32,11 @@ TEST(Material, ValidationNamesTheFieldAndValue) {
   expect_invalid_argument([] { Material{0.0, 0.3}.validate(); }, {"Material.youngs_modulus_Pa", "0"});
   expect_invalid_argument([] { Material{std::numeric_limits<double>::infinity(), 0.3}.validate(); },
                           {"Material.youngs_modulus_Pa", "inf", "finite"});
+  // Positive but far outside the solids: refused by name rather than left to overflow in a solver.
+  expect_invalid_argument([] { Material{1e200, 0.3}.validate(); }, {"Material.youngs_modulus_Pa", "1e+200", "[1e-06, 1e+15] Pa"});
+  expect_invalid_argument([] { Material{1e-300, 0.3}.validate(); }, {"Material.youngs_modulus_Pa", "1e-300", "[1e-06, 1e+15] Pa"});
+  Material{min_youngs_modulus_Pa, 0.3}.validate();
+  Material{max_youngs_modulus_Pa, 0.3}.validate();
   expect_invalid_argument([] { Material{1e4, 0.5}.validate(); }, {"Material.poisson_ratio", "0.5", "[0, 0.5)"});
   expect_invalid_argument([] { Material{1e4, -0.1}.validate(); }, {"Material.poisson_ratio", "-0.1"});
   expect_invalid_argument([] { Material{1e4, std::nan("")}.validate(); }, {"Material.poisson_ratio", "nan"});

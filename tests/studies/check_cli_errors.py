@@ -119,6 +119,7 @@ CASES = {
     "E = Inf": in_every_material_reader(E, 'youngs_modulus = "inf kPa"', "youngs_modulus"),
     "E < 0": in_every_material_reader(E, 'youngs_modulus = "-10 kPa"', "youngs_modulus"),
     "E = 0": in_every_material_reader(E, 'youngs_modulus = "0 kPa"', "youngs_modulus"),
+    "E = 1e200 Pa": in_every_material_reader(E, 'youngs_modulus = "1e200 Pa"', "youngs_modulus"),
     "ν = 0.5": in_every_material_reader(NU, "poisson_ratio = 0.5", "poisson_ratio"),
     "ν = NaN": in_every_material_reader(NU, "poisson_ratio = nan", "poisson_ratio"),
     "tool radius ≤ 0": {
