@@ -89,7 +89,9 @@ json summary_json(const rt::RunSummary& r) {
       {"model_builds",
        {{"exterior_used", r.exterior_used},
         {"first_build_error", r.first_build_error.empty() ? json(nullptr) : json(r.first_build_error)},
-        {"first_exterior_note", r.first_exterior_note.empty() ? json(nullptr) : json(r.first_exterior_note)}}},
+        {"first_exterior_note", r.first_exterior_note.empty() ? json(nullptr) : json(r.first_exterior_note)},
+        {"implausible_stiffness_models", r.implausible_stiffness_models},
+        {"first_implausible_stiffness_ratio", json_number(r.first_implausible_stiffness_ratio)}}},
       {"models", model_records_json(r.models)},
       {"models_not_recorded", r.models_not_recorded},
       {"notes", r.notes},
@@ -108,7 +110,8 @@ json model_records_json(const std::vector<rt::ModelRecord>& models) {
                     {"load_force_N", vector_json(m.load_force_N)},
                     {"exterior_used", m.exterior_used},
                     {"node_count", m.node_count},
-                    {"build_s", m.build_s}});
+                    {"build_s", m.build_s},
+                    {"stiffness_ratio_to_half_space", json_number(m.stiffness_ratio_to_half_space)}});
   return list;
 }
 

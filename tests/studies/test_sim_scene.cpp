@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -293,6 +294,42 @@ TEST(SimRun, StudyModeWritesSummaryForcesAndATimeSeries) {
   EXPECT_EQ(std::system(check.c_str()), 0) << check;
 }
 
+/// A 2.5 s palpation of one site of the organ in sphere.vtp (E = 10 kPa, ν = 0.45, frictionless,
+/// 30 nodes at L = 12.5 mm); the strings are added to their tables.
+struct SpherePalpation {
+  std::string organ_lines, tip_radius = "2.5 mm", model_lines, scripted_lines = "slide = \"1 mm\"";
+};
+
+std::string sphere_palpation_scene(const std::string& name, const Eigen::Vector3d& site, const SpherePalpation& p) {
+  return "scene = \"" + name + R"("
+duration = "2.5 s"
+[organ]
+surface = "sphere.vtp"
+)" + p.organ_lines + R"(
+[material]
+youngs_modulus = "10 kPa"
+poisson_ratio = 0.45
+[tool]
+tip_radius = ")" + p.tip_radius + R"("
+contact = "frictionless"
+[model]
+)" + p.model_lines + R"(
+[model.sprinkling]
+node_count = 30
+local_radius = "12.5 mm"
+[device.scripted]
+site0 = [)" + std::to_string(site.x()) + ", " + std::to_string(site.y()) + ", " + std::to_string(site.z()) + R"(]
+)" + p.scripted_lines + R"(
+approach = "0.5 s"
+hold = "0.3 s"
+slide_time = "0.3 s"
+release = "0.4 s"
+rest = "0.2 s"
+[output]
+time_series = false
+)";
+}
+
 // [organ] atlas gives the enriched model its body-aware exterior: with an atlas sample at the
 // palpation site every build uses it (the summary counts the exterior of each build), and an
 // exterior twice the half-space's stiffness makes the largest force larger than the run without
@@ -304,36 +341,8 @@ TEST(SimRun, AnOrganAtlasGivesTheBuildsTheirBodyAwareExterior) {
   meshes::write_surface_mesh(directory.path("sphere.vtp"), mesh.vertices, mesh.triangles);
   const Eigen::Vector3d top = *std::max_element(mesh.vertices.begin(), mesh.vertices.end(),
                                                 [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.z() < b.z(); });
-  const std::string scene_text = R"(
-scene = "atlas"
-duration = "2.5 s"
-[organ]
-surface = "sphere.vtp"
-@ATLAS@
-[material]
-youngs_modulus = "10 kPa"
-poisson_ratio = 0.45
-[tool]
-tip_radius = "2.5 mm"
-contact = "frictionless"
-[model.sprinkling]
-node_count = 30
-local_radius = "12.5 mm"
-[device.scripted]
-site0 = [)" + std::to_string(top.x()) + ", " + std::to_string(top.y()) + ", " + std::to_string(top.z()) + R"(]
-slide = "1 mm"
-approach = "0.5 s"
-hold = "0.3 s"
-slide_time = "0.3 s"
-release = "0.4 s"
-rest = "0.2 s"
-[output]
-time_series = false
-)";
   const auto scene_with = [&](const std::string& atlas_line, const std::string& name) {
-    std::string text = scene_text;
-    text.replace(text.find("@ATLAS@"), 7, atlas_line);
-    return directory.file(name, text);
+    return directory.file(name, sphere_palpation_scene("atlas", top, {atlas_line}));
   };
 
   realtime::mfs::OrganAtlas atlas;
@@ -375,6 +384,59 @@ time_series = false
   } catch (const ConfigError& error) {
     EXPECT_NE(std::string(error.what()).find("organ.atlas"), std::string::npos) << error.what();
   }
+}
+
+// A tip far finer than the organ's facets, pressed at a facet's centre (about 30 µm inside the
+// sphere the facets approximate, more than a/10): every build succeeds, and the models' normal
+// stiffness is the half-space punch's 2Ea/(1 − ν²), as it must be for a ≪ L ≪ R. The contact
+// used to be judged against the fitted sphere (every build refused, the device felt nothing),
+// and a push a fraction of a degree off the fitted normal locked the model (ten times too stiff).
+// A model that is that wrong is counted and noted: the first Galerkin model at 30 nodes shows it.
+TEST(SimRun, AFineTipOnACoarseOrganBuildsPlausibleModelsAndImplausibleOnesAreNoted) {
+  touchstone::testing::TemporaryDirectory directory("sim_fine_tip");
+  const auto mesh = geometry::icosphere(4, 0.04);
+  meshes::write_surface_mesh(directory.path("sphere.vtp"), mesh.vertices, mesh.triangles);
+  // The centre of the facet nearest the top.
+  Eigen::Vector3d site = Eigen::Vector3d::Zero();
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d centre = (mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3;
+    if (centre.z() > site.z()) site = centre;
+  }
+  ASSERT_GT(0.04 - site.norm(), 2e-5) << "the premise: the facet's centre lies well inside the sphere";
+  const auto run = [&](const std::string& model_lines, const std::string& tip_radius, const std::string& name) {
+    const SpherePalpation palpation{"", tip_radius, model_lines, "press_depth = \"0.5 mm\"\nslide = \"0.2 mm\""};
+    const std::string text = sphere_palpation_scene("fine_tip", site, palpation);
+    SimOptions options;
+    options.virtual_clock = true;
+    options.print = false;
+    options.output_directory = directory.path(name);
+    return run_sim(read_sim_scene(directory.file(name + ".toml", text)), options);
+  };
+
+  const nlohmann::json fine = run("", "0.05 mm", "enriched");
+  EXPECT_EQ(fine["work"]["model_build_failures"], 0) << fine["model_builds"].dump();
+  ASSERT_GE(fine["models"].size(), 1u);
+  for (const auto& model : fine["models"]) {
+    std::printf("fine tip, enriched: model %d stiffness / half-space's %.5f\n", model["model_id"].get<int>(),
+                model["stiffness_ratio_to_half_space"].get<double>());
+    EXPECT_NEAR(model["stiffness_ratio_to_half_space"].get<double>(), 1.0, 0.02) << model.dump();
+  }
+  EXPECT_EQ(fine["model_builds"]["implausible_stiffness_models"], 0);
+  EXPECT_GT(fine["forces"]["max_force_N"].get<double>(), 0.0);
+
+  // The first Galerkin model (no singular fields) at 30 nodes, with the usual tip: on the
+  // identical domain it is about four times too stiff at this size.
+  const nlohmann::json galerkin = run("formulation = \"galerkin\"", "2.5 mm", "galerkin");
+  ASSERT_GE(galerkin["models"].size(), 1u) << galerkin["model_builds"].dump();
+  EXPECT_EQ(galerkin["model_builds"]["implausible_stiffness_models"].get<long long>(),
+            static_cast<long long>(galerkin["models"].size()));
+  std::printf("usual tip, first Galerkin model: the first model's stiffness / half-space's %.3f\n",
+              galerkin["model_builds"]["first_implausible_stiffness_ratio"].get<double>());
+  EXPECT_GT(galerkin["model_builds"]["first_implausible_stiffness_ratio"].get<double>(), 4.0);
+  const auto& notes = galerkin["notes"];
+  EXPECT_TRUE(std::any_of(notes.begin(), notes.end(), [](const nlohmann::json& note) {
+    return note.get<std::string>().find("outside [0.25, 4] times the half-space punch's") != std::string::npos;
+  })) << notes.dump();
 }
 
 TEST(SimRun, ARecordingReplaysToTheSameForces) {

@@ -159,10 +159,16 @@ double chebyshev(int k, double t) { return std::cos(k * std::acos(std::clamp(t, 
 
 }  // namespace
 
-std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame) {
+std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame, double local_radius_m) {
   // A frictionless tool pushing along the patch normal loads only the normal mode; a bonded or
-  // oblique one also shears the patch (its constraint traction along d has a tangential part).
-  const bool along_normal = contact.direction.normalized().dot(frame.axes.col(2)) > std::cos(1.0 * 3.14159265358979323846 / 180);
+  // oblique one also shears the patch (its constraint traction along d has a tangential part)
+  // and tilts its face against it. The tilt the MLS part would hold costs energy that grows as
+  // θ²(L/a)³, so the tolerance on θ narrows for a fine tip in a wide ball.
+  const Eigen::Vector3d d = contact.direction.normalized(), n = frame.axes.col(2);
+  const double off_normal_rad = std::atan2(d.cross(n).norm(), d.dot(n));
+  const double reach = local_radius_m / contact.radius_m;
+  const bool along_normal = off_normal_rad < 1.0 * 3.14159265358979323846 / 180 &&
+                            off_normal_rad * off_normal_rad * reach * reach * reach <= 0.04;
   if (contact.condition == geometry::ContactCondition::frictionless && along_normal) return {PunchMode::normal};
   // The tangential modes neglect their normal coupling, so their u₃ is odd under the disk; the
   // patch holds its tilt, and without the tilt modes the MLS part must, which stiffens it at
@@ -336,6 +342,7 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
                           PunchFrame& frame, std::string& failure) {
   require_chosen(settings, "enriched_quadratures");
   out = EnrichedQuadratures{};
+  out.local_radius_m = local_radius_m;
   const double a = contact.radius_m, length = local_radius_m;
   // The patch is the disk of radius a about the contact on the organ, centred on its normal: the
   // punch fields live in its frame (e₃ the inward normal), whatever direction the tool pushes.
@@ -370,7 +377,7 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
   frame.origin = f.centre + rim_axial * f.push;
   // r = a sin t absorbs the rim's (a² − r²)^(−½); the radial mode adds a log-singular pressure
   // (its dome), which t = (π/2)(1 − (1 − x)²) grades toward as well.
-  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame, local_radius_m);
   const bool graded_twice = std::find(modes.begin(), modes.end(), PunchMode::radial) != modes.end();
   for (int i = 0; i < settings.patch_radial_points; ++i) {
     const double t = graded_twice ? 0.5 * pi * (1 - (1 - x[i]) * (1 - x[i])) : 0.5 * pi * x[i], r = a * std::sin(t);
@@ -504,7 +511,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   model.volume_rule[2] = settings.volume_azimuth_points;
   model.cut_rule[0] = settings.cut_polar_points;
   model.cut_rule[1] = settings.cut_azimuth_points;
-  model.modes = enrichment_modes(contact, frame);
+  model.modes = enrichment_modes(contact, frame, quad.local_radius_m);
   const bool bonded = contact.condition == geometry::ContactCondition::bonded;
   const Eigen::Index n_nodes = static_cast<Eigen::Index>(cloud.size());
   const Eigen::Index m = static_cast<Eigen::Index>(model.modes.size());

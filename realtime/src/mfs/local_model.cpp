@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace touchstone::realtime::mfs {
@@ -383,7 +384,7 @@ LocalModel build_enriched(const geometry::TriangleSurface& organ, LocalModel mod
     along_patch.direction = frame.axes.col(2);
     // The atlas holds the punch translations; a bonded tool's radial mode takes the
     // half-space's exterior terms (build_enriched_model).
-    const int modes = translation_mode_count(enrichment_modes(model.contact, frame));
+    const int modes = translation_mode_count(enrichment_modes(model.contact, frame, length));
     std::string why_not = "no organ atlas was given";
     if (!exterior || !exterior(along_patch, length, model.material, modes, exterior_stiffness, why_not)) {
       enriched.exterior = ExteriorCondition::half_space;
@@ -568,6 +569,14 @@ LocalModel build_local_model(const geometry::TriangleSurface& organ, const ToolC
   model.times.total_s = seconds_since(start);
   if (!traction_is_haptic) diagnostic_traction_map(organ, model);
   return model;
+}
+
+double stiffness_ratio_to_half_space(const LocalModel& model) {
+  const Eigen::Vector3d d = model.contact.direction.normalized();
+  const double nu = model.material.poisson_ratio;
+  const double half_space_N_per_m = 2 * model.material.youngs_modulus_Pa * model.contact.radius_m / (1 - nu * nu);
+  const double ratio = d.dot(model.tool_stiffness_N_per_m * d) / half_space_N_per_m;
+  return std::isfinite(ratio) ? ratio : std::numeric_limits<double>::quiet_NaN();
 }
 
 LocalSolution solve_local_model(const LocalModel& model, const Eigen::Vector3d& tool_displacement_m) {

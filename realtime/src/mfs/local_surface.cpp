@@ -44,6 +44,7 @@ LocalSurface::LocalSurface(const geometry::TriangleSurface& organ, const Eigen::
   const geometry::SurfaceProjection hit = organ.project(contact_point_m);
   centre_ = hit.point;
   normal_ = hit.normal;
+  contact_offset_m_ = hit.distance_m;
   const Eigen::Vector3d helper = std::abs(normal_.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
   t1_ = normal_.cross(helper).normalized();
   t2_ = normal_.cross(t1_);

@@ -374,7 +374,9 @@ NodeCloud sprinkle_even_nodes(const LocalSurface& surface, const ToolContact& co
   if (!(a > 0) || !(a < 0.5 * length))
     throw std::invalid_argument("ToolContact.radius_m = " + std::to_string(a) + " must be in (0, L/2) with L = " +
                                 std::to_string(length));
-  const double off_surface = (surface.centre() - contact.point).norm();
+  // Against the triangles, not the fitted centre: the fit smooths a faceted organ by up to its
+  // residual, which a fine tip's a/10 does not allow for.
+  const double off_surface = surface.contact_offset_m();
   if (off_surface > 0.1 * a)
     throw std::invalid_argument("ToolContact.point is not on the organ surface (distance " + std::to_string(off_surface) +
                                 " m)");

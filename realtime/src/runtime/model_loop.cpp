@@ -77,6 +77,13 @@ void ModelLoop::adopt(BuildResult result) {
   model = result.model;
   ++exterior_used[model->exterior_used.empty() ? "none" : model->exterior_used];
   if (first_exterior_note.empty() && !model->exterior_note.empty()) first_exterior_note = model->exterior_note;
+  // Adopted all the same (the safety filter bounds what the device renders), but counted: the
+  // run's summary says that its forces came from a model that is wrong.
+  const double stiffness_ratio = mfs::stiffness_ratio_to_half_space(*model);
+  if (!(stiffness_ratio >= mfs::plausible_stiffness_ratio_min && stiffness_ratio <= mfs::plausible_stiffness_ratio_max)) {
+    if (implausible_stiffness_models == 0) first_implausible_stiffness_ratio = stiffness_ratio;
+    ++implausible_stiffness_models;
+  }
   snapshot.model_id += 1;
   snapshot.valid = true;
   snapshot.tool_stiffness_N_per_m = plain(model->tool_stiffness_N_per_m);
@@ -98,6 +105,7 @@ void ModelLoop::adopt(BuildResult result) {
     r.exterior_used = model->exterior_used.empty() ? "none" : model->exterior_used;
     r.node_count = model->cloud.positions.size();
     r.build_s = result.build_s;
+    r.stiffness_ratio_to_half_space = stiffness_ratio;
   } else {
     ++records_dropped;
   }

@@ -6,6 +6,7 @@
 
 #include "runtime_state.hpp"
 
+#include <limits>
 #include <map>
 #include <string>
 
@@ -25,6 +26,10 @@ struct ModelLoop {
   std::map<std::string, long long> exterior_used;
   std::string first_build_error;  ///< why the first failed build failed ("" when none did)
   std::string first_exterior_note;  ///< why the first build without its body-aware exterior fell back ("" when none did)
+  /// Models made current with an implausible normal stiffness, and the first one's multiple of
+  /// the half-space punch's (NaN: none).
+  long long implausible_stiffness_models = 0;
+  double first_implausible_stiffness_ratio = std::numeric_limits<double>::quiet_NaN();
   std::vector<ModelRecord> records;  ///< every model made current (at most max_model_records)
   long long records_dropped = 0;
   double now_s = 0;                  ///< the current step's time [s]

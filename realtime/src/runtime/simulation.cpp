@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <exception>
 #include <future>
 #include <memory>
@@ -156,6 +157,8 @@ struct Simulation::Impl : RuntimeState {
       summary.exterior_used = model->exterior_used;
       summary.first_build_error = model->first_build_error;
       summary.first_exterior_note = model->first_exterior_note;
+      summary.implausible_stiffness_models = model->implausible_stiffness_models;
+      summary.first_implausible_stiffness_ratio = model->first_implausible_stiffness_ratio;
       summary.models = model->records;
       summary.models_not_recorded = model->records_dropped;
       if (model->records_dropped > 0)
@@ -165,6 +168,13 @@ struct Simulation::Impl : RuntimeState {
         notes.push_back(std::to_string(work.model_build_failures) + " of " + std::to_string(work.model_builds) +
                         " model builds failed (the force stayed on the previous model, or zero); the first: " +
                         model->first_build_error);
+      if (model->implausible_stiffness_models > 0) {
+        char ratio[32];
+        std::snprintf(ratio, sizeof ratio, "%.3g", model->first_implausible_stiffness_ratio);
+        notes.push_back(std::to_string(model->implausible_stiffness_models) +
+                        " models had a normal stiffness outside [0.25, 4] times the half-space punch's 2Ea/(1 - nu^2) "
+                        "(the first: " + ratio + " times): the local model is wrong there, not the tissue stiff");
+      }
       if (!model->first_exterior_note.empty()) {
         const auto fallback = model->exterior_used.find("half_space");
         notes.push_back(std::to_string(fallback == model->exterior_used.end() ? 0 : fallback->second) +

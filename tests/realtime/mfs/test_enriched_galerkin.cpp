@@ -106,6 +106,32 @@ TEST(EnrichedGalerkin, HalfSpaceFrictionlessForceIsExactAtEveryN) {
     }
 }
 
+// A tool pushed θ off the patch normal tilts its face against the patch. With the normal mode
+// alone the MLS part must hold that tilt, at an energy that grows as θ²(L/a)³: nothing at the
+// usual L = 5a, but a fine tip in a ball of the usual size locks. The modes are chosen by that
+// product, so a fine tip 0.5° off the normal takes the tilt modes and keeps the half-space's
+// stiffness, while the usual tip keeps the normal mode alone.
+TEST(EnrichedGalerkin, FineTipPushedOffTheNormalKeepsTheHalfSpaceStiffness) {
+  const geometry::Material material;
+  const double off_normal_rad = 0.5 * 3.14159265358979323846 / 180;
+  for (const double radius : {a, length / 625}) {
+    ToolContact contact = top_contact(geometry::ContactCondition::frictionless);
+    contact.radius_m = radius;
+    contact.direction = {std::sin(off_normal_rad), 0.0, -std::cos(off_normal_rad)};
+    const double exact = punch_half_space_stiffness_N_per_m(PunchMode::normal, radius, material);
+    for (const int nodes : {30, 60}) {
+      const Built b = build(flat_body(), contact, nodes, ExteriorCondition::half_space, material);
+      ASSERT_TRUE(b.model.ok()) << b.model.status;
+      EXPECT_EQ(b.model.modes.size(), radius == a ? 1u : 5u) << "L/a = " << length / radius;
+      // The tissue's normal stiffness: the surface normal is e_z.
+      const double error = b.model.tool_stiffness_N_per_m(2, 2) / exact - 1;
+      std::printf("half-space, 0.5 deg off the normal: L/a = %.0f  N = %zu  k_zz/k_exact - 1 = %+.1e\n", length / radius,
+                  b.cloud.size(), error);
+      EXPECT_NEAR(error, 0.0, 1e-3) << "L/a = " << length / radius << ", N = " << b.cloud.size();
+    }
+  }
+}
+
 // The stuck tangential field neglects the ≈ 1 % normal–tangential coupling: its u₃ is odd under
 // the disk, and the patch holds the tilt that makes. The tilt modes carry it, so the stiffness is
 // within 1 % at every N (the printed figures are in the README).
@@ -157,7 +183,7 @@ TEST(EnrichedGalerkin, BondedBodyAwareTakesTheTranslationsFromTheAtlas) {
   PunchFrame frame;
   std::string failure;
   ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
-  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame, length);
   ASSERT_EQ(modes.size(), 6u);
   ASSERT_EQ(translation_mode_count(modes), 3);
   const Eigen::MatrixXd half_space = half_space_exterior_stiffness(modes, frame, a, material, quadratures.cut);
@@ -193,7 +219,7 @@ TEST(EnrichedGalerkin, CutShiftLowersTheStiffnessAndAStiffShiftIsNoShift) {
   PunchFrame frame;
   std::string failure;
   ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, quadratures, frame, failure)) << failure;
-  const std::vector<PunchMode> modes = enrichment_modes(contact, frame);
+  const std::vector<PunchMode> modes = enrichment_modes(contact, frame, length);
   ASSERT_EQ(translation_mode_count(modes), 1);
   const double k_normal = half_space_exterior_stiffness(modes, frame, a, material, quadratures.cut)(0, 0);
   const MlsSettings mls{Basis::quadratic, Weight::quartic_spline, 1e-12, 2.0};

@@ -1,6 +1,7 @@
 // Node sprinkling on a real closed surface (the gmsh B2 hemisphere): counts, placement of each
 // node kind, determinism, bad input; and the tool-patch quadrature.
 #include "hemisphere_fixture.hpp"
+#include "touchstone/realtime/mfs/local_surface.hpp"
 #include "touchstone/realtime/mfs/node_sprinkling.hpp"
 #include "touchstone/realtime/mfs/tool_force.hpp"
 
@@ -134,6 +135,38 @@ TEST(Sprinkling, BadInputIsNamed) {
   ToolContact nan_direction = pole_contact();
   nan_direction.direction.x() = std::nan("");
   EXPECT_THROW(sprinkle_nodes(hemisphere(), nan_direction, settings), std::invalid_argument);
+}
+
+// Whether a contact is on the organ is judged on its triangles, not on the smooth surface the
+// enriched model fits there: on a faceted organ the two differ by more than a fine tip's a/10,
+// and a contact point on a facet must still be accepted. A point well off the triangles is not.
+TEST(EvenSprinkling, AContactOnAFacetIsOnTheOrganForAFineTip) {
+  const double fine_tip_m = 5e-5, length_m = 5 * tool_radius_m;
+  // 20° from the pole, where the fixture's triangles are coarse (the sagitta of a 4 mm edge on
+  // R = 50 mm is 40 µm).
+  const double polar = 20 * 3.14159265358979323846 / 180;
+  const Eigen::Vector3d on_sphere = radius_m * Eigen::Vector3d(std::sin(polar), 0.0, std::cos(polar));
+  ToolContact contact = pole_contact();
+  contact.radius_m = fine_tip_m;
+  contact.point = hemisphere().project(on_sphere).point;
+  contact.direction = -on_sphere.normalized();
+  const LocalSurface surface(hemisphere(), contact.point, 1.3 * length_m);
+  ASSERT_TRUE(surface.fitted());
+  // The premise: the fitted surface's point is farther from the facet's than a/10.
+  ASSERT_GT((surface.centre() - contact.point).norm(), 0.1 * fine_tip_m);
+  EXPECT_LT(surface.contact_offset_m(), 1e-9);
+  const NodeCloud cloud = sprinkle_even_nodes(surface, contact, 30, length_m, 1);
+  EXPECT_EQ(cloud.size(), 30u);
+
+  ToolContact off_organ = contact;
+  off_organ.point += 0.2 * fine_tip_m * on_sphere.normalized();
+  const LocalSurface off_surface(hemisphere(), off_organ.point, 1.3 * length_m);
+  try {
+    sprinkle_even_nodes(off_surface, off_organ, 30, length_m, 1);
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ToolContact.point is not on the organ surface"), std::string::npos) << e.what();
+  }
 }
 
 /// A flat-topped organ (B1: cylinder, top face z = 0) so that the patch is a plane disk.

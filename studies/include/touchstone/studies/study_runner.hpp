@@ -217,8 +217,8 @@ constexpr double rcond_margin = 100.0;
 /// on B1's flat top somewhat more), bonded ≈ frictionless as ν → 0.5, a free base near the patch
 /// softer. Tiny Galerkin supports that grew can be an order of magnitude too stiff while the force
 /// estimators agree (a spread under force_method_spread_limit): this bound is what catches them.
-constexpr double stiffness_ratio_min = 0.25;
-constexpr double stiffness_ratio_max = 4.0;
+constexpr double stiffness_ratio_min = realtime::mfs::plausible_stiffness_ratio_min;
+constexpr double stiffness_ratio_max = realtime::mfs::plausible_stiffness_ratio_max;
 
 /// The indicator of an MFS case's JSON (qoi.force_N, qoi.forces_by_method_N, qoi.min_rcond,
 /// diagnostics, params: min_rcond_threshold, youngs_modulus_Pa, poisson_ratio, tool_radius_m,

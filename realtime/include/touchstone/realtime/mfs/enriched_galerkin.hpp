@@ -155,6 +155,7 @@ EnrichedSettings quadratures_for_node_count(EnrichedSettings settings, std::size
 struct EnrichedQuadratures {
   PatchQuadrature volume, patch, free_surface, cut, clamped;
   std::vector<double> patch_radius_m, patch_azimuth_rad;  ///< r and φ of each patch point in the punch frame
+  double local_radius_m = 0;  ///< L, the radius of the ball the rules cover
 };
 
 /// The assembled and solved enriched model for the three unit tool translations.
@@ -209,9 +210,12 @@ struct EnrichedModel {
 };
 
 /// The enrichment fields for a contact: the normal mode alone for a frictionless tool pushing
-/// along the patch normal (within 1°); otherwise the three translations and the two tilts, and
-/// for a bonded tool the radial mode (shear with a flat face) too.
-std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame);
+/// along the patch normal; otherwise the three translations and the two tilts, and for a bonded
+/// tool the radial mode (shear with a flat face) too. "Along the normal" is within an angle θ
+/// with θ ≤ 1° and θ²(L/a)³ ≤ 0.04 (what 1° gives at L = 5a): a tool pushed θ off the normal
+/// tilts its face against the patch, and without the tilt modes the MLS part must hold that
+/// tilt, which stiffens the model as θ²(L/a)³ (a fine tip in a ball of the usual size).
+std::vector<PunchMode> enrichment_modes(const ToolContact& contact, const PunchFrame& frame, double local_radius_m);
 
 /// How many of `modes` are punch translations (they come first; an organ atlas holds their
 /// exterior stiffness).
@@ -232,7 +236,7 @@ std::vector<double> enriched_support_radii(const std::vector<Eigen::Vector3d>& n
 /// The quadratures of the enriched model on the organ near the contact (patch and free surface
 /// found along the tool axis; the cut sphere and the volume by rays from the contact, graded
 /// toward the tool; clamped parts inside the ball from `clamped`, which may be empty). Also sets the punch frame: origin at the centre of
-/// the patch's rim circle, e₃ = the push direction. Fails (status) when the tool axis misses the
+/// the patch's rim circle, e₃ = the organ's inward normal at the contact (not the push direction). Fails (status) when the tool axis misses the
 /// organ near the contact, e.g. at an organ edge.
 bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contact, double local_radius_m,
                           const EnrichedSettings& settings, const PatchQuadrature& clamped, EnrichedQuadratures& out,

@@ -171,6 +171,16 @@ struct LocalModel {
   bool ok() const { return status == "ok"; }
 };
 
+/// A local model's normal stiffness d·K_t·d along its push direction d, as a multiple of the
+/// frictionless flat punch's on a half-space, 2Ea/(1 − ν²). A rigid flat punch on a body whose
+/// clamped or free boundaries lie at least 2a away is within a small factor of it (of the
+/// benchmark bodies the ball clamped at L = 5a is the stiffest, and it stays under 2×; bonded
+/// tools are about as stiff as frictionless ones): outside
+/// [plausible_stiffness_ratio_min, plausible_stiffness_ratio_max] it is the model that is wrong,
+/// not the tissue. NaN for a model without a stiffness.
+double stiffness_ratio_to_half_space(const LocalModel& model);
+constexpr double plausible_stiffness_ratio_min = 0.25, plausible_stiffness_ratio_max = 4.0;
+
 /// The node cloud build_local_model places for `settings` (paper mode: the tip node, first,
 /// and no patch rings; Galerkin: no extra collocation points), without building anything else:
 /// milliseconds. The paper's tip spacing cloud.spacing[0] is eq. 9's tributary radius s.

@@ -33,6 +33,10 @@ class LocalSurface {
   const Eigen::Vector3d& normal() const { return normal_; }
   /// Largest fit residual over the vertices used [m] (0 when not fitted).
   double fit_residual_m() const { return residual_m_; }
+  /// How far the contact point given to the constructor lies from the organ's triangles [m].
+  /// centre() may lie farther from it, by up to the fit's residual: the fit is smooth where the
+  /// triangles are faceted, so whether a contact is on the organ is asked of this distance.
+  double contact_offset_m() const { return contact_offset_m_; }
 
   /// True when x is inside the organ by more than margin_m (measured along the normal when
   /// fitted: the vertical depth below the surface).
@@ -53,7 +57,7 @@ class LocalSurface {
 
   const geometry::TriangleSurface& organ_;
   Eigen::Vector3d centre_, normal_, t1_, t2_;
-  double reach_m_ = 0, residual_m_ = 0;
+  double reach_m_ = 0, residual_m_ = 0, contact_offset_m_ = 0;
   bool fitted_ = false;
   Eigen::Matrix<double, 15, 1> coefficients_ = Eigen::Matrix<double, 15, 1>::Zero();  ///< depth monomials u^i v^j, i + j ≤ 4
 };

@@ -41,6 +41,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -156,6 +157,8 @@ struct ModelRecord {
   std::string exterior_used;      ///< enriched: "clamped", "half_space", "body_aware"; else "none"
   std::size_t node_count = 0;
   double build_s = 0;             ///< wall time of the build [s]
+  /// d·K_t·d over the half-space punch's 2Ea/(1 − ν²) (mfs::stiffness_ratio_to_half_space)
+  double stiffness_ratio_to_half_space = 0;
 };
 
 /// Work done and skipped: a scene skips the work it doesn't need, and these counters show it.
@@ -228,6 +231,11 @@ struct RunSummary {
   /// Why the first build that wanted the body-aware exterior fell back to the half-space (e.g. no
   /// organ atlas, or no atlas sample near the contact); "" when none did.
   std::string first_exterior_note;
+  /// Models made current whose normal stiffness lies outside the plausible multiples of the
+  /// half-space punch's (mfs::plausible_stiffness_ratio_min … max), and the first one's multiple
+  /// (NaN when none did): a local model that is wrong, not stiff tissue.
+  long long implausible_stiffness_models = 0;
+  double first_implausible_stiffness_ratio = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> notes;
 };
 
