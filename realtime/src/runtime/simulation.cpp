@@ -169,11 +169,13 @@ struct Simulation::Impl : RuntimeState {
                         " model builds failed (the force stayed on the previous model, or zero); the first: " +
                         model->first_build_error);
       if (model->implausible_stiffness_models > 0) {
-        char ratio[32];
-        std::snprintf(ratio, sizeof ratio, "%.3g", model->first_implausible_stiffness_ratio);
-        notes.push_back(std::to_string(model->implausible_stiffness_models) +
-                        " models had a normal stiffness outside [0.25, 4] times the half-space punch's 2Ea/(1 - nu^2) "
-                        "(the first: " + ratio + " times): the local model is wrong there, not the tissue stiff");
+        char text[256];
+        std::snprintf(text, sizeof text,
+                      " models had a normal stiffness outside [%g, %g] times the half-space punch's 2Ea/(1 - nu^2) "
+                      "(the first: %.3g times): the local model is wrong there, not the tissue stiff",
+                      mfs::plausible_stiffness_ratio_min, mfs::plausible_stiffness_ratio_max,
+                      model->first_implausible_stiffness_ratio);
+        notes.push_back(std::to_string(model->implausible_stiffness_models) + text);
       }
       if (!model->first_exterior_note.empty()) {
         const auto fallback = model->exterior_used.find("half_space");
