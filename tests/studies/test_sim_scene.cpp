@@ -342,7 +342,9 @@ TEST(SimRun, AnOrganAtlasGivesTheBuildsTheirBodyAwareExterior) {
   const Eigen::Vector3d top = *std::max_element(mesh.vertices.begin(), mesh.vertices.end(),
                                                 [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.z() < b.z(); });
   const auto scene_with = [&](const std::string& atlas_line, const std::string& name) {
-    return directory.file(name, sphere_palpation_scene("atlas", top, {atlas_line}));
+    SpherePalpation palpation;
+    palpation.organ_lines = atlas_line;
+    return directory.file(name, sphere_palpation_scene("atlas", top, palpation));
   };
 
   realtime::mfs::OrganAtlas atlas;
