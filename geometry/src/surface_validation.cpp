@@ -159,16 +159,28 @@ bool check_size(const Surface& s) {
 
 void check_finite_coordinates(Surface& s) {
   s.finite.assign(s.vertex_count, 0);
-  std::size_t count = 0;
-  int first = -1;
+  std::size_t non_finite = 0, far = 0;
+  int first_non_finite = -1, first_far = -1;
   for (int v = 0; v < s.vertex_count; ++v) {
-    s.finite[v] = s.vertices[v].allFinite();
-    if (!s.finite[v] && count++ == 0) first = v;
+    const Vector3d& x = s.vertices[v];
+    const bool finite = x.allFinite();
+    // Far beyond any organ the squared lengths and volumes of the later checks overflow, and
+    // every triangle would be blamed for what is one vertex's (unit or parse) error.
+    const bool near = finite && x.cwiseAbs().maxCoeff() <= max_surface_coordinate_m;
+    s.finite[v] = near;
+    if (!finite && non_finite++ == 0) first_non_finite = v;
+    if (finite && !near && far++ == 0) first_far = v;
   }
-  if (count > 0) {
-    s.report(SurfaceDefectKind::non_finite_coordinate, count,
-             "non-finite coordinate in " + counted(count, "vertex", "vertices") + ", e.g. " + s.names.vertex(first) +
-                 " = " + s.names.point(first));
+  if (non_finite > 0) {
+    s.report(SurfaceDefectKind::non_finite_coordinate, non_finite,
+             "non-finite coordinate in " + counted(non_finite, "vertex", "vertices") + ", e.g. " +
+                 s.names.vertex(first_non_finite) + " = " + s.names.point(first_non_finite));
+  }
+  if (far > 0) {
+    s.report(SurfaceDefectKind::non_finite_coordinate, far,
+             "coordinate beyond +-" + format_number(max_surface_coordinate_m) + " m in " + counted(far, "vertex", "vertices") +
+                 ", e.g. " + s.names.vertex(first_far) + " = " + s.names.point(first_far) +
+                 " (no organ is that large: a unit or a number misread?)");
   }
 }
 

@@ -56,6 +56,21 @@ TEST(ValidateSurface, ValidSurfacesHaveNoDefects) {
             std::vector<SurfaceDefectKind>{SurfaceDefectKind::non_finite_coordinate});
 }
 
+// One vertex at 1e300 m (a unit or parse error) is named as such; it used to make every triangle
+// "degenerate" (their areas overflowed), a vertex at the origin a "duplicate" of it, and the
+// volume inward. A vertex within the limit is only where it is.
+TEST(ValidateSurface, AVertexFarBeyondAnyOrganIsNamedAloneWithItsCoordinates) {
+  Mesh sphere = icosphere(2, 0.03);
+  sphere.vertices[0] = {1e300, 0.0, 0.0};
+  const auto defects = validate_surface(sphere.vertices, sphere.triangles);
+  ASSERT_EQ(kinds(defects), std::vector<SurfaceDefectKind>{SurfaceDefectKind::non_finite_coordinate});
+  EXPECT_TRUE(mentions(defects[0], "coordinate beyond +-1e+09 m in 1 vertex")) << defects[0].message;
+  EXPECT_TRUE(mentions(defects[0], "1e+300")) << defects[0].message;
+  sphere.vertices[0] = {max_surface_coordinate_m, 0.0, 0.0};
+  for (const SurfaceDefect& defect : validate_surface(sphere.vertices, sphere.triangles))
+    EXPECT_NE(defect.kind, SurfaceDefectKind::non_finite_coordinate) << defect.message;
+}
+
 // Two closed spheres in one surface: each is valid alone; overlapping, they pass through each
 // other along a circle, and no inside exists. Apart, they are a valid two-shell surface.
 TEST(ValidateSurface, FindsTrianglesThatPassThroughEachOther) {

@@ -25,12 +25,16 @@ struct SurfaceLabels {
   std::vector<long long> triangle_tags;      ///< one per triangle, or empty
 };
 
+/// The largest coordinate a surface's vertex may have [m]: far beyond any organ, and far enough
+/// below the overflow of the checks' squared lengths and triple products.
+constexpr double max_surface_coordinate_m = 1e9;
+
 /// What can be wrong with a surface, in the order validate_surface reports them (a defect
 /// earlier in the list often causes later ones: a seam of duplicated vertices is also a hole).
 enum class SurfaceDefectKind {
   no_triangles,
   too_large,                 ///< more triangles or vertices than int indices address
-  non_finite_coordinate,
+  non_finite_coordinate,     ///< NaN or ±∞, or beyond ±max_surface_coordinate_m
   index_out_of_range,
   degenerate_triangle,       ///< a repeated vertex index or (near-)zero area
   duplicate_triangle,        ///< the same three vertices as another triangle, in any order
