@@ -253,6 +253,8 @@ class CompressedBlockCounts {
     if (!compressed_) return;
     if (tag.find("\"binary\"") != std::string::npos || tag.find("'binary'") != std::string::npos) {
       const std::size_t stop = std::min(text_.find('<', content), text_.size());
+      // VTK starts inline data at its first character that is not white space.
+      while (content < stop && std::isspace(static_cast<unsigned char>(text_[content]))) ++content;
       check(content, stop, true, "an inline compressed DataArray of piece " + std::to_string(piece));
     } else if (unsigned long long offset = 0; xml_count_attribute(tag, "offset", offset)) {
       appended_.push_back({offset, piece});
@@ -272,25 +274,30 @@ class CompressedBlockCounts {
     }
   }
 
-  /// The AppendedData element starting at `at`; the data follows its '_'.
+  /// The AppendedData element starting at `at`.
   void check_appended(std::size_t at) {
     if (!compressed_) return;
     const std::size_t tag_end = text_.find('>', at);
     if (tag_end == std::string::npos) return;
     const std::string tag = text_.substr(at, tag_end - at);
     const bool base64 = tag.find("\"base64\"") != std::string::npos || tag.find("'base64'") != std::string::npos;
-    const std::size_t underscore = text_.find('_', tag_end);
-    if (underscore == std::string::npos) return;
+    // Where VTK's parser starts the data: at the first character after the tag that is not white
+    // space (isspace, as VTK tests it), past it when it is the '_' that marks the data. Any other
+    // character, say a stray byte, counts as data, and every header then reads shifted.
+    std::size_t data = tag_end + 1;
+    while (data < text_.size() && std::isspace(static_cast<unsigned char>(text_[data]))) ++data;
+    if (data == text_.size()) return;
+    if (text_[data] == '_') ++data;
     for (const auto& [offset, piece] : appended_) {
-      if (offset >= text_.size() - underscore - 1) continue;  // VTK says the offset is wrong
-      check(underscore + 1 + static_cast<std::size_t>(offset), text_.size(), base64,
+      if (offset >= text_.size() - data) continue;  // VTK says the offset is wrong
+      check(data + static_cast<std::size_t>(offset), text_.size(), base64,
             "an appended compressed DataArray of piece " + std::to_string(piece));
     }
   }
 
  private:
+  /// The compression header of the data in [from, stop).
   void check(std::size_t from, std::size_t stop, bool base64, const std::string& what) const {
-    while (from < stop && std::isspace(static_cast<unsigned char>(text_[from]))) ++from;
     // Every header word is at least word_ bytes of data; base64 stores 3 bytes in 4 characters.
     const long double available = static_cast<long double>(stop - from) * (base64 ? 0.75L : 1.0L);
     std::vector<unsigned char> bytes = header_bytes(from, stop, base64, 3);

@@ -764,6 +764,14 @@ TEST(SurfaceMeshIo, CompressedVtpReadsAndACorruptBlockCountFailsClearly) {
                                 "/tests/fuzz/corpus/fuzz_surface_vtp/corrupt_offset_not_a_number.vtp";
   expect_invalid_argument([&] { read_surface_mesh(no_offset); },
                           {"corrupt_offset_not_a_number.vtp", "appended compressed DataArray of piece 1", "offset 'P'"});
+  // Another: a byte 0xA0 in front of the '_' that marks the appended data. VTK then starts the
+  // data at that byte, three bytes early, and reads "\xa0  _" as the first array's block count:
+  // 1,595,941,024 blocks, and allocates gigabytes for their sizes.
+  const std::string stray_byte = std::string(TOUCHSTONE_SOURCE_DIR) +
+                                 "/tests/fuzz/corpus/fuzz_surface_vtp/corrupt_stray_byte_before_appended_data.vtp";
+  expect_invalid_argument([&] { read_surface_mesh(stray_byte); },
+                          {"corrupt_stray_byte_before_appended_data.vtp",
+                           "appended compressed DataArray of piece 1 declares 1595941024 compressed blocks"});
 }
 
 TEST(SurfaceMeshIo, WriteRejectsBadInputAndUnwritablePaths) {
