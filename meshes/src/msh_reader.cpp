@@ -1,4 +1,5 @@
 #include "touchstone/meshes/msh_reader.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include <Eigen/Core>
 
@@ -37,6 +38,8 @@ std::string format_number(double value) {
 class MshText {
  public:
   explicit MshText(const std::string& path) : path_(path) {
+    if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+      throw std::invalid_argument(path + ": cannot open the mesh file (" + reason + ")");
     std::ifstream in(path, std::ios::binary);
     if (!in) {
       throw std::invalid_argument(path + ": cannot open the mesh file (" + std::strerror(errno) + ")");

@@ -396,11 +396,16 @@ void label_vtk(vtkPolyData* data, const std::string& path, SurfaceMesh& mesh) {
 }
 
 void read_vtk(const std::string& path, SurfaceMesh& mesh) {
-  check_legacy_declared_sizes(path, require_file(path));
+  const std::string geometry = check_legacy_declared_sizes(path, require_file(path));
+  // VTK reads its input string's length as an int.
+  if (geometry.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    fail(path, "a legacy VTK surface of 2 GB or more is not read (write it as .vtp)");
   vtkNew<VtkMessages> messages;
   vtkNew<vtkPolyDataReader> reader;
   messages->watch(reader);
   reader->SetFileName(path.c_str());
+  reader->ReadFromInputStringOn();
+  reader->SetBinaryInputString(geometry.data(), static_cast<int>(geometry.size()));
   bool polydata = false;
   {
     const QuietVtkLogger quiet;

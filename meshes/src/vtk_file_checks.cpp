@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -46,9 +47,21 @@ class LegacyCellLists {
   }
 
   void check() {
-    for (std::string keyword = word(); !keyword.empty(); keyword = word()) {
+    for (;;) {
+      skip_space();
+      const std::size_t start = at_;
+      std::string keyword = word();
+      if (keyword.empty()) return;
       keyword = as_vtk_reads(keyword);
-      if (keyword == "POINT_DATA" || keyword == "CELL_DATA") return;
+      if (keyword == "POINT_DATA" || keyword == "CELL_DATA") {
+        attributes_start_ = start;
+        return;
+      }
+      if (keyword == "FIELD") {
+        skip_field_data();
+        field_blocks_.emplace_back(start, at_);
+        continue;
+      }
       if (keyword == "POINTS" && binary_) {
         const unsigned long long count = counted(keyword, word());
         const std::string type = word();
@@ -109,13 +122,94 @@ class LegacyCellLists {
     }
   }
 
+  /// The bytes VTK is given after check(): the file without its FIELD blocks and without the
+  /// point and cell data that follow the geometry. A surface needs neither, and VTK 9.1 reads
+  /// them unchecked (a FIELD block it cannot read is a null dereference; POINT_DATA sizes its
+  /// arrays by a count the file declares).
+  std::string geometry() const {
+    std::string kept;
+    std::size_t from = 0;
+    for (const auto& [begin, end] : field_blocks_) {
+      kept.append(bytes_, from, begin - from);
+      from = end;
+    }
+    kept.append(bytes_, from, std::min(attributes_start_, bytes_.size()) - from);
+    return kept;
+  }
+
  private:
+  /// A FIELD block of the dataset section, from its name on: "FIELD name arrays", then per
+  /// array "name components tuples type" and its values (or the word NULL_ARRAY), each array
+  /// perhaps followed by a METADATA block that ends at an empty line. Only numeric arrays are
+  /// accepted: they are skipped, not read, and their extent must be certain.
+  void skip_field_data() {
+    const std::string name = word();
+    long long arrays = 0;
+    if (name.empty() || !integer(word(), arrays) || arrays < 0)
+      fail(path_, "malformed legacy VTK file: FIELD must be followed by a name and its number of arrays");
+    for (long long a = 0; a < arrays; ++a) {
+      const std::string array = word();
+      if (array.empty()) {
+        fail(path_, "truncated legacy VTK file: FIELD '" + name + "' declares " + std::to_string(arrays) +
+                        " arrays, the file ends after " + std::to_string(a));
+      }
+      if (array == "NULL_ARRAY") continue;
+      const std::string what = "FIELD '" + name + "' array '" + array + "'";
+      const unsigned long long components = counted(what, word());
+      const unsigned long long tuples = counted(what, word());
+      const std::string type = word();
+      const std::size_t width = type_width(type);
+      if (width == 0) {
+        fail(path_, "unsupported legacy VTK file: " + what + " is of type '" + type +
+                        "'; only numeric FIELD arrays can be skipped (a surface's field data is not read)");
+      }
+      const double values = static_cast<double>(components) * static_cast<double>(tuples);
+      if (binary_) {
+        skip_binary(what, type == "bit" ? std::ceil(values / 8) : values * static_cast<double>(width));
+      } else {
+        for (double k = 0; k < values; ++k) {
+          const std::string text = word();
+          double value = 0;
+          const auto [stop, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+          if (text.empty() || stop != text.data() + text.size() ||
+              (error != std::errc() && error != std::errc::result_out_of_range)) {
+            fail(path_, "malformed legacy VTK file: " + what + " declares " + text_of(values) + " values, value " +
+                            text_of(k + 1) + " is " + (text.empty() ? std::string("missing") : "'" + text + "'"));
+          }
+        }
+      }
+      skip_metadata();
+    }
+  }
+
+  /// A METADATA block after an array, if there is one: to the first empty line.
+  void skip_metadata() {
+    const std::size_t before = at_;
+    std::string next = word();
+    for (char& c : next) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (next.rfind("metadata", 0) != 0) {
+      at_ = before;
+      return;
+    }
+    // Its lines follow the keyword's line; the first empty one ends it.
+    bool keyword_line = true;
+    for (std::size_t end = bytes_.find('\n', at_); end != std::string::npos; end = bytes_.find('\n', at_)) {
+      std::size_t length = end - at_;
+      if (length > 0 && bytes_[end - 1] == '\r') --length;
+      at_ = end + 1;
+      if (length == 0 && !keyword_line) return;
+      keyword_line = false;
+    }
+    at_ = bytes_.size();
+  }
+
   /// The keyword VTK's reader takes a word for: it lower-cases the word and compares only the
   /// keyword's length of it ("POLYGONSxyz" is POLYGONS), so the check must too.
   static std::string as_vtk_reads(const std::string& word) {
     std::string lower = word;
     for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    for (const char* keyword : {"point_data", "cell_data", "points", "vertices", "lines", "polygons", "triangle_strips"}) {
+    for (const char* keyword :
+         {"point_data", "cell_data", "field", "points", "vertices", "lines", "polygons", "triangle_strips"}) {
       if (lower.rfind(keyword, 0) == 0) {
         std::string upper = keyword;
         for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
@@ -125,9 +219,13 @@ class LegacyCellLists {
     return word;
   }
 
+  void skip_space() {
+    while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
+  }
+
   /// The next whitespace-separated word ("" at the end of the file).
   std::string word() {
-    while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
+    skip_space();
     const std::size_t begin = at_;
     while (at_ < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
     return bytes_.substr(begin, at_ - begin);
@@ -214,6 +312,8 @@ class LegacyCellLists {
   bool binary_;
   std::string bytes_;
   std::size_t at_ = 0;
+  std::vector<std::pair<std::size_t, std::size_t>> field_blocks_;  // [begin, end) in bytes_
+  std::size_t attributes_start_ = std::string::npos;
 };
 
 /// The integer value of attribute `name` in the XML start tag `tag` (either quote), or false
@@ -479,7 +579,7 @@ void check_xml_declared_sizes(const std::string& path, std::uintmax_t size) {
 /// VTK allocates what a header declares before it reads the data: a corrupt count would claim
 /// gigabytes. The counts of a legacy file are checked against its size first: it stores at least
 /// 6 bytes (ASCII "0 0 0 ") or 12 bytes (binary floats) per point.
-void check_legacy_declared_sizes(const std::string& path, std::uintmax_t size) {
+std::string check_legacy_declared_sizes(const std::string& path, std::uintmax_t size) {
   std::ifstream in(path, std::ios::binary);
   std::string head(4096, '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
@@ -504,16 +604,19 @@ void check_legacy_declared_sizes(const std::string& path, std::uintmax_t size) {
   std::size_t third = head.find('\n');
   third = third == std::string::npos ? third : head.find('\n', third + 1);
   const bool binary = third != std::string::npos && head.compare(third + 1, 6, "BINARY") == 0;
-  LegacyCellLists(path, binary).check();
+  LegacyCellLists lists(path, binary);
+  lists.check();
+  std::string geometry = lists.geometry();
   const std::size_t key = head.find("\nPOINTS ");
-  if (key == std::string::npos) return;  // VTK will say what is wrong
+  if (key == std::string::npos) return geometry;  // VTK will say what is wrong
   unsigned long long points = 0;
   const char* begin = head.data() + key + 8;
-  if (std::from_chars(begin, head.data() + head.size(), points).ec != std::errc()) return;
+  if (std::from_chars(begin, head.data() + head.size(), points).ec != std::errc()) return geometry;
   if (static_cast<double>(points) * (binary ? 12 : 6) > static_cast<double>(size)) {
     fail(path, "corrupt or truncated file: it declares " + std::to_string(points) + " points, more than " +
                    std::to_string(size) + " bytes can hold");
   }
+  return geometry;
 }
 
 }  // namespace touchstone::meshes::internal

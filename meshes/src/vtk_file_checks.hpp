@@ -15,8 +15,10 @@ constexpr double max_xml_bytes_per_file_byte = 1100;
 
 /// Binary STL of `size` bytes: its facet count against its size.
 void check_binary_stl_size(const std::string& path, std::uintmax_t size);
-/// Legacy VTK of `size` bytes: the version line, every cell list, the point count.
-void check_legacy_declared_sizes(const std::string& path, std::uintmax_t size);
+/// Legacy VTK of `size` bytes: the version line, every cell list, the point count, the extent of
+/// every FIELD block. Returns the bytes to give VTK: the file without its FIELD blocks and
+/// without the point and cell data after the geometry (a surface reads neither).
+std::string check_legacy_declared_sizes(const std::string& path, std::uintmax_t size);
 /// VTK XML PolyData of `size` bytes: the pieces' counts, the arrays' sizes, compressed arrays'
 /// block counts and block sizes. (The offsets that size the connectivity are checked as VTK decodes them, by the
 /// reader in surface_mesh_io.cpp.)

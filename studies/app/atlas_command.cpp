@@ -22,10 +22,10 @@ struct AtlasOptions {
 
 int run_atlas(AtlasOptions o, ProgramArguments arguments) {
   fem::MpiSession mpi(*arguments.argc, *arguments.argv);
+  studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   o.run.config_text = studies::read_file(o.config);
   o.run.quiet = o.quiet;
   if (o.no_cache) o.run.cache_directory.clear();
-  studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::OrganAtlasStudy study = studies::read_organ_atlas_study(config);
   print_defaults_filled(o.config, config.defaults_filled(), o.quiet || fem::MpiSession::rank() != 0);
   o.run.output_directory = o.output.empty() ? "output/" + study.name : o.output;

@@ -20,10 +20,10 @@ struct CollisionOptions {
 
 int run_collision(const CollisionOptions& o) {
   studies::CollisionRunOptions options;
+  studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   options.config_text = studies::read_file(o.config);
   options.quiet = o.quiet;
   options.plots = !o.no_plots;
-  studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
   const studies::CollisionStudy study = studies::read_collision_study(config);
   print_defaults_filled(o.config, config.defaults_filled(), o.quiet);
   options.output_directory = o.output.empty() ? "output/" + study.name : o.output;

@@ -1,5 +1,6 @@
 // The output helpers every subcommand shares (see the header).
 #include "touchstone/studies/output_files.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -190,6 +191,8 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 }
 
 std::string read_file(const std::string& path) {
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+    throw std::runtime_error("cannot read '" + path + "' (" + reason + ")");
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
     const int error_number = errno;

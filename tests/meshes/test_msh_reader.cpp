@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
+
 namespace touchstone::meshes {
 namespace {
 
@@ -178,6 +180,10 @@ TEST(MshReader, RejectsBrokenFilesNamingThem) {
   const TemporaryDirectory directory("msh_reader");
   const std::string missing = directory.path("missing.msh");
   expect_invalid_argument([&] { load_msh_surface(missing); }, {missing, "cannot open"});
+  // A named pipe would block the read until a writer came.
+  const std::string pipe = directory.path("pipe.msh");
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+  expect_invalid_argument([&] { load_msh_surface(pipe); }, {pipe, "cannot open", "not a regular file"});
 
   const std::string empty = directory.file("empty.msh", "");
   expect_invalid_argument([&] { load_msh_surface(empty); }, {empty, "not a gmsh MSH file", "empty"});

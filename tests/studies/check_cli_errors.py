@@ -3,6 +3,7 @@ a run that fails after starting exits 1. Each case runs `touchstone` in a scratc
 the status, a text in stderr (the key or value it names) and that nothing was written: neither
 the output folder nor the FEM cache. `--table` prints the bad-number matrix as the README's table.
 Usage: check_cli_errors.py <touchstone binary> <source dir> <scratch dir> [--table]"""
+import os
 import pathlib
 import re
 import shutil
@@ -20,8 +21,13 @@ BAD_INPUT = 2
 failures = []
 
 
-def check(name, args, status, text, absent=(), cwd=None):
-    result = subprocess.run([binary, *args], capture_output=True, text=True, timeout=600, cwd=cwd)
+def check(name, args, status, text, absent=(), cwd=None, timeout=600):
+    try:
+        result = subprocess.run([binary, *args], capture_output=True, text=True, timeout=timeout, cwd=cwd)
+    except subprocess.TimeoutExpired:
+        print(f"FAIL {name}: no answer within {timeout} s")
+        failures.append(name)
+        return False
     ok = result.returncode == status and text in result.stderr
     for path in absent:
         if pathlib.Path(path).exists():
@@ -45,6 +51,15 @@ check("study --only nomatch", ["study", str(configs / "ci_accuracy.toml"), "--on
 out = scratch / "accept"
 check("study accept without [ci]", ["study", "accept", str(configs / "hemisphere.toml"), "--out", str(out)], BAD_INPUT,
       "[ci] baseline is not set", absent=[out])
+
+# --- A config that is a device or a named pipe: read forever or blocked on, were it opened -------
+fifo = scratch / "pipe.toml"
+os.mkfifo(fifo)
+for command in ("mesh", "fem", "mfs", "study", "atlas", "sim", "collision"):
+    for path in ("/dev/zero", str(fifo)):
+        out = scratch / f"special_{command}"
+        check(f"{command} {path}", [command, path, "--out", str(out)], BAD_INPUT, "device, pipe or socket, not a regular file",
+              absent=[out], timeout=60)
 
 # --- An empty or near-empty config runs nothing on defaults: what defines the problem is required
 for command, text, named in [

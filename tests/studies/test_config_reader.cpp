@@ -8,6 +8,7 @@
 #include <functional>
 #include <initializer_list>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace touchstone::studies {
@@ -347,6 +348,11 @@ TEST_F(ConfigTableFile, MissingFileNamesIt) {
   expect_config_error([&] { ConfigTable::from_file(path); }, {path, "cannot open"});
   expect_config_error([&] { ConfigTable::from_file(folder_.string()); },
                       {folder_.string(), "folder"});
+  // A named pipe or a device would block the read or never end it.
+  const std::string pipe = (folder_ / "pipe.toml").string();
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+  expect_config_error([&] { ConfigTable::from_file(pipe); }, {pipe, "not a regular file"});
+  expect_config_error([&] { ConfigTable::from_file("/dev/zero"); }, {"/dev/zero", "not a regular file"});
 }
 
 }  // namespace

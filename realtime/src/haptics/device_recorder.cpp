@@ -1,4 +1,5 @@
 #include "touchstone/realtime/haptics/device_recorder.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -58,6 +59,8 @@ void RecordingDevice::write_csv(const std::string& path) const {
 }
 
 std::vector<RecordedSample> read_recording_csv(const std::string& path) {
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+    throw std::runtime_error("recording " + path + ": cannot open (" + reason + ")");
   std::ifstream in(path);
   if (!in) throw std::runtime_error("recording " + path + ": cannot open");
   std::string line;

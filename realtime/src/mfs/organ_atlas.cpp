@@ -1,4 +1,5 @@
 #include "touchstone/realtime/mfs/organ_atlas.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -208,6 +209,8 @@ bool relatively_equal(double x, double y, double tolerance) {
 }  // namespace
 
 OrganAtlas read_organ_atlas(const std::string& path) {
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+    throw std::runtime_error(path + ": cannot open the organ atlas (" + reason + ")");
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open the organ atlas");
   json document;

@@ -1,4 +1,5 @@
 #include "touchstone/studies/fem_reference/config_reader.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include <toml++/toml.h>
 
@@ -296,10 +297,8 @@ ConfigTable& ConfigTable::operator=(ConfigTable&&) noexcept = default;
 ConfigTable::~ConfigTable() = default;
 
 ConfigTable ConfigTable::from_file(const std::string& path) {
-  // A folder opens fine as a stream and fails only on reading, with a less clear message.
-  std::error_code ignored;
-  if (std::filesystem::is_directory(path, ignored)) {
-    throw ConfigError(path + ": cannot open config file (it is a folder)");
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty()) {
+    throw ConfigError(path + ": cannot open config file (" + reason + ")");
   }
   std::ifstream stream(path, std::ios::binary);
   if (!stream) {

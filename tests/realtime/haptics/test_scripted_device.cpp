@@ -194,6 +194,7 @@ TEST(Recording, MalformedFilesNameTheFileAndLine) {
     }
   };
   expect_error(write("x,y\n"), "header");
+  expect_error("/dev/zero", "not a regular file");  // would be read forever
   expect_error(write(header + "0,1,2,3,1,0,0,0,1,0,0,0\n0.001,1,2,3,1,0,0,0,1,0,0\n"), "line 3");
   expect_error(write(header + "0,1,2,nan,1,0,0,0,1,0,0,0\n"), "not finite");
   expect_error(write(header + "0,1,2,abc,1,0,0,0,1,0,0,0\n"), "'abc'");

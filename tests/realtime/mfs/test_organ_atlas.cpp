@@ -293,6 +293,18 @@ TEST(OrganAtlasFile, ANumberBeyondDoubleIsAnErrorNamingTheFile) {
   }
 }
 
+// A device or a named pipe given as the atlas would be read forever or block.
+TEST(OrganAtlasFile, ADeviceIsNotReadAndIsNamed) {
+  try {
+    read_organ_atlas("/dev/zero");
+    ADD_FAILURE() << "read /dev/zero";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("/dev/zero: cannot open the organ atlas (it is a device, pipe or socket, not a regular file)"),
+              std::string::npos)
+        << error.what();
+  }
+}
+
 TEST(OrganAtlasLookup, AtASampleReturnsItsMatrixAndScalesWithE) {
   const OrganAtlas atlas = hemisphere_atlas();
   OrganAtlasQuery q = query_at(atlas.samples[1]);

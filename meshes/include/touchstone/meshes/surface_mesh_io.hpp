@@ -19,7 +19,8 @@
 ///
 /// Polygons are triangulated (quadrilaterals and larger polygons by VTK's ear cutting,
 /// triangle strips into their triangles); every piece keeps the number of its polygon.
-/// Points and lines are ignored. STL coordinates are 32-bit floats in the file (VTK reads ASCII
+/// Points and lines are ignored, and so are point, cell and field data (a legacy .vtk file's
+/// FIELD blocks and the sections after its cells are not even given to VTK). STL coordinates are 32-bit floats in the file (VTK reads ASCII
 /// STL as floats too); the other formats keep doubles.
 
 #include "touchstone/geometry/triangle_surface.hpp"
