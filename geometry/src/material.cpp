@@ -4,6 +4,7 @@
 #include "touchstone/geometry/material.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -14,9 +15,12 @@ void Material::validate() const {
   // The models are linear in E, but their factorisations multiply stiffness entries together:
   // far outside the range of solids (soft gels to diamond) they over- or underflow and end in a
   // status that blames the system rather than E.
-  if (youngs_modulus_Pa < min_youngs_modulus_Pa || youngs_modulus_Pa > max_youngs_modulus_Pa)
-    throw_invalid_value("Material.youngs_modulus_Pa", youngs_modulus_Pa,
-                        "Pa is outside [1e-06, 1e+15] Pa, the range of solids with wide margins (soft gels to diamond)");
+  if (youngs_modulus_Pa < min_youngs_modulus_Pa || youngs_modulus_Pa > max_youngs_modulus_Pa) {
+    std::ostringstream range;
+    range << "Pa is outside [" << min_youngs_modulus_Pa << ", " << max_youngs_modulus_Pa
+          << "] Pa, the range of solids with wide margins (soft gels to diamond)";
+    throw_invalid_value("Material.youngs_modulus_Pa", youngs_modulus_Pa, range.str());
+  }
   if (!std::isfinite(poisson_ratio) || poisson_ratio < 0 || poisson_ratio >= 0.5)
     throw_invalid_value("Material.poisson_ratio", poisson_ratio, "must be in [0, 0.5)");
 }
