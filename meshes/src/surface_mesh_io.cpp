@@ -1,6 +1,7 @@
 // Surface meshes in five formats behind one read and one write (one file: the formats share the
 // welding, unit scaling, triangulation of polygons and the error naming by file and element).
 #include "touchstone/meshes/surface_mesh_io.hpp"
+#include "touchstone/geometry/regular_file.hpp"
 
 #include "text_of.hpp"
 #include "vtk_file_checks.hpp"
@@ -162,7 +163,8 @@ std::uintmax_t require_file(const std::string& path) {
   std::error_code error;
   const auto status = std::filesystem::status(path, error);
   if (error || !std::filesystem::exists(status)) fail(path, "cannot open the file (it does not exist)");
-  if (!std::filesystem::is_regular_file(status)) fail(path, "cannot open the file (not a regular file)");
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+    fail(path, "cannot open the file (" + reason + ")");
   const std::uintmax_t size = std::filesystem::file_size(path, error);
   if (error) fail(path, "cannot open the file (" + error.message() + ")");
   std::ifstream in(path, std::ios::binary);

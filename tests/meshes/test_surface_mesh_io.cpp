@@ -465,7 +465,7 @@ TEST(SurfaceMeshIo, BrokenFilesOfEveryFormatFailClearly) {
   expect_invalid_argument([&] { read_surface_mesh(directory.path("mesh.ply")); }, {"mesh.ply", "unsupported", ".stl"});
   expect_invalid_argument([&] { read_surface_mesh(directory.path("no_extension")); }, {"no_extension", "unsupported"});
   std::filesystem::create_directory(directory.path("folder.obj"));
-  expect_invalid_argument([&] { read_surface_mesh(directory.path("folder.obj")); }, {"folder.obj", "not a regular file"});
+  expect_invalid_argument([&] { read_surface_mesh(directory.path("folder.obj")); }, {"folder.obj", "cannot open the file (it is a folder)"});
 
   // A binary STL whose facet count does not match its size: VTK would read it silently.
   const std::string binary = directory.path("count.stl");
