@@ -104,8 +104,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   if (!surface.empty()) {
     fs::path path(surface);
     if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
-    std::error_code ignored;
-    if (!fs::is_regular_file(path, ignored)) throw ConfigError(surface_key + ": no such file '" + path.string() + "'");
+    require_input_file(surface_key, path.string());
     study.surface_path = fs::absolute(path).lexically_normal().string();
     try {
       meshes::surface_format_of(study.surface_path);
@@ -124,9 +123,7 @@ MfsStudy read_mfs_study(ConfigTable& config, const std::string& config_directory
   if (!atlas.empty()) {
     fs::path path(atlas);
     if (path.is_relative() && !config_directory.empty()) path = fs::path(config_directory) / path;
-    std::error_code ignored;
-    if (!fs::is_regular_file(path, ignored))
-      throw ConfigError(organ.where("atlas") + ": no such file '" + path.string() + "' (make it with touchstone atlas)");
+    require_input_file(organ.where("atlas"), path.string(), "make it with touchstone atlas");
     study.atlas_path = fs::absolute(path).lexically_normal().string();
     mfs::read_organ_atlas(study.atlas_path);  // a broken atlas is a config error, named now
   }

@@ -205,12 +205,10 @@ SimScene read_sim_scene(const std::string& path) {
   // Files, relative to the scene's folder.
   ConfigTable organ = config.table("organ");
   scene.surface_path = path_relative_to(directory, organ.string("surface", ""));
-  if (!scene.surface_path.empty() && !fs::is_regular_file(scene.surface_path))
-    throw ConfigError(organ.where("surface") + ": no such file '" + scene.surface_path + "'");
+  if (!scene.surface_path.empty()) require_input_file(organ.where("surface"), scene.surface_path);
   scene.atlas_path = path_relative_to(directory, organ.string("atlas", ""));
   if (!scene.atlas_path.empty()) {
-    if (!fs::is_regular_file(scene.atlas_path))
-      throw ConfigError(organ.where("atlas") + ": no such file '" + scene.atlas_path + "' (make it with touchstone atlas)");
+    require_input_file(organ.where("atlas"), scene.atlas_path, "make it with touchstone atlas");
     try {
       s.organ_atlas = std::make_shared<const realtime::mfs::OrganAtlas>(realtime::mfs::read_organ_atlas(scene.atlas_path));
     } catch (const std::exception& error) {

@@ -61,6 +61,38 @@ for command in ("mesh", "fem", "mfs", "study", "atlas", "sim", "collision"):
         check(f"{command} {path}", [command, path, "--out", str(out)], BAD_INPUT, "device, pipe or socket, not a regular file",
               absent=[out], timeout=60)
 
+# --- A file the config names (an organ surface, an atlas) that is a pipe or a folder -------------
+named_pipe = scratch / "organ.obj"
+os.mkfifo(named_pipe)
+folder_named = scratch / "atlas_folder"
+folder_named.mkdir()
+for command, base_text, text, path, named in [
+        ("sim", '[organ]\nshape = "stomach"', '[organ]\nsurface = "{}"', named_pipe, "organ.surface"),
+        ("sim", '"../atlases/stomach.json"', '"{}"', folder_named, "organ.atlas"),
+        ("mfs", '[sprinkling]', '[organ]\nsurface = "{}"\n[sprinkling]', named_pipe, "organ.surface"),
+        ("mfs", '[sprinkling]', '[organ]\natlas = "{}"\n[sprinkling]', folder_named, "organ.atlas")]:
+    folder = scratch / f"named_file_{command}_{path.name}"
+    folder.mkdir()
+    base = (configs / "scenes" / "palpation.toml").read_text() if command == "sim" else None
+    base = base or """study = "cli_check"\n[geometry]\nbenchmark = "B2"\nbody_radius = "50 mm"\ntool_radius = "2.5 mm"
+[material]\nyoungs_modulus = "10 kPa"\npoisson_ratio = 0.45\n[tool]\ndepth = "0.25 mm"\n[sprinkling]\nnode_count = [34]\n"""
+    if base_text not in base:
+        sys.exit(f"check_cli_errors.py: '{base_text}' is not in the {command} base config (the shipped config changed?)")
+    (folder / "bad.toml").write_text(base.replace(base_text, text.format(path), 1))
+    reason = "it is a folder" if path.is_dir() else "it is a device, pipe or socket, not a regular file"
+    check(f"{command}: {named} is {path.name}", [command, str(folder / "bad.toml"), "--out", str(folder / "out")], BAD_INPUT,
+          f"{named}: cannot read '{path}' ({reason}", absent=[folder / "out"], timeout=60)
+
+# --- `surface check` of a surface whose coordinates overflow its sizes: the defect, never inf or nan
+huge = scratch / "huge.obj"
+huge.write_text("v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+result = subprocess.run([binary, "surface", "check", str(huge)], capture_output=True, text=True, timeout=60)
+ok = (result.returncode == 2 and "coordinate beyond" in result.stdout and "overflow" in result.stdout
+      and not re.search(r"\b(inf|nan)\b", result.stdout))
+print(f"{'ok  ' if ok else 'FAIL'} surface check of 1e300 coordinates: exit {result.returncode}, stdout: {result.stdout.strip()[-220:]}")
+if not ok:
+    failures.append("surface check of 1e300 coordinates")
+
 # --- An empty or near-empty config runs nothing on defaults: what defines the problem is required
 for command, text, named in [
         ("fem", 'study = "empty"\n', "missing key 'material.youngs_modulus'"),

@@ -427,10 +427,16 @@ std::string ConfigTable::file_path(const std::string& key, const std::string& de
   if (name.empty()) return name;
   std::filesystem::path path(name);
   if (path.is_relative()) path = std::filesystem::path(state_->source).parent_path() / path;
+  require_input_file(state_->where(key), path.string());
+  return std::filesystem::absolute(path).lexically_normal().string();
+}
+
+void require_input_file(const std::string& where, const std::string& path, const std::string& hint) {
+  if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+    throw ConfigError(where + ": cannot read '" + path + "' (" + reason + ")");
   std::error_code ignored;
   if (!std::filesystem::is_regular_file(path, ignored))
-    throw ConfigError(state_->where(key) + ": no such file '" + path.string() + "'");
-  return std::filesystem::absolute(path).lexically_normal().string();
+    throw ConfigError(where + ": no such file '" + path + "'" + (hint.empty() ? "" : " (" + hint + ")"));
 }
 
 std::string ConfigTable::choice(const std::string& key, const std::vector<std::string>& choices,

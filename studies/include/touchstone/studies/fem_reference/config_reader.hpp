@@ -32,6 +32,11 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Checks that the input file a config key names can be read: a ConfigError "<where>: no such
+/// file '<path>'" (plus `hint`, e.g. how to make it) when it is missing, or naming what it is
+/// instead when it is a folder, a device or a pipe (which would open and then block or never end).
+void require_input_file(const std::string& where, const std::string& path, const std::string& hint = "");
+
 /// One TOML table of a config file. Every key read is marked used; finish() throws on any key
 /// that was never read, so a misspelled key is an error, not a silently ignored default.
 class ConfigTable {
