@@ -895,9 +895,10 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
 
   // KKT [K Bᵀ; B 0] [x; y] = [0; G U], multipliers λ = −y, rows scaled to K's magnitude.
   // Solved through the augmented stiffness K_ρ = K + ρ BᵀB (the same solution, since Bx = G),
-  // which is positive definite exactly when the KKT solution is unique: one Cholesky of the
-  // n × n K_ρ and a c × c Schur complement S = B K_ρ⁻¹ Bᵀ, instead of an LU of the indefinite
-  // (n + c) × (n + c) system. With Z = K_ρ⁻¹ Bᵀ: x = Z S⁻¹ G, y = ρ G − S⁻¹ G.
+  // which is positive definite exactly when the KKT solution is unique: one Cholesky K_ρ = L Lᵀ
+  // of the n × n K_ρ and a c × c Schur complement S = B K_ρ⁻¹ Bᵀ = Wᵀ W with W = L⁻¹ Bᵀ (one
+  // triangular solve per multiplier, not two), instead of an LU of the indefinite (n + c) × (n + c)
+  // system: x = L⁻ᵀ W S⁻¹ G, y = ρ G − S⁻¹ G.
   model.boundary_s = boundary_sampling_s + seconds_since(step);
   step = clock::now();
   const Eigen::Index c = static_cast<Eigen::Index>(rows.size());
@@ -919,11 +920,14 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> cholesky(augmented);
   if (cholesky.info() != Eigen::Success)
     return fail("the enriched system is singular: the constraints leave a zero-energy mode free");
-  const Eigen::MatrixXd z = cholesky.solve(constraints.transpose());
-  const Eigen::MatrixXd schur = constraints * z;
+  Eigen::MatrixXd w = constraints.transpose();
+  cholesky.matrixL().solveInPlace(w);
+  const Eigen::MatrixXd schur = w.transpose() * w;
   const Eigen::MatrixXd s_inverse_g = schur.ldlt().solve(targets);
   Eigen::MatrixXd solution(n + c, 3);
-  solution.topRows(n) = z * s_inverse_g;
+  Eigen::MatrixXd x = w * s_inverse_g;
+  cholesky.matrixU().solveInPlace(x);
+  solution.topRows(n) = x;
   solution.bottomRows(c) = rho * targets - s_inverse_g;
   const double residual = std::sqrt((K * solution.topRows(n) + constraints.transpose() * solution.bottomRows(c)).squaredNorm() +
                                     (constraints * solution.topRows(n) - targets).squaredNorm());

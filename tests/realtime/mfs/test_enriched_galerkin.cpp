@@ -401,6 +401,35 @@ TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
     std::shuffle(set->points.begin(), set->points.end(), shuffle);
   }
   EXPECT_EQ(radii_of({&permuted.cut, &permuted.free_surface, &permuted.volume, &permuted.patch}), radii);
+  // The radii by their definition, with a full sort at every node and point: the selection
+  // (bounded by the previous point, in the rules' order and in a shuffled one) must agree bit
+  // for bit.
+  const std::size_t n = cloud.positions.size();
+  std::vector<double> defined(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    std::vector<double> d;
+    for (const Eigen::Vector3d& y : cloud.positions) d.push_back((y - cloud.positions[j]).norm());
+    std::sort(d.begin(), d.end());
+    defined[j] = d[static_cast<std::size_t>(settings.support_neighbours)];
+  }
+  const std::vector<double> nearest_only = defined;
+  for (const PatchQuadrature* set : {&q.volume, &q.patch, &q.free_surface, &q.cut})
+    for (const Eigen::Vector3d& x : set->points) {
+      std::vector<double> squared;
+      int seen = 0;
+      for (std::size_t j = 0; j < n; ++j) {
+        const Eigen::Vector3d d = cloud.positions[j] - x;
+        squared.push_back(d.x() * d.x() + d.y() * d.y() + d.z() * d.z());
+        seen += squared.back() < nearest_only[j] * nearest_only[j] ? 1 : 0;
+      }
+      if (seen >= settings.min_point_neighbours) continue;
+      std::vector<double> sorted = squared;
+      std::sort(sorted.begin(), sorted.end());
+      const double within = sorted[static_cast<std::size_t>(settings.min_point_neighbours - 1)];
+      for (std::size_t j = 0; j < n; ++j)
+        if (squared[j] <= within) defined[j] = std::max(defined[j], 1.2 * std::sqrt(squared[j]));
+    }
+  EXPECT_EQ(radii, defined);
   // Every point sees enough nodes, and some supports did grow (else the test shows nothing).
   int grown = 0;
   const std::vector<double> nearest = radii_of({});
