@@ -23,7 +23,7 @@ struct AtlasOptions {
 int run_atlas(AtlasOptions o, ProgramArguments arguments) {
   fem::MpiSession mpi(*arguments.argc, *arguments.argv);
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
-  o.run.config_text = studies::read_file(o.config);
+  o.run.config_text = config.source_text();
   o.run.quiet = o.quiet;
   if (o.no_cache) o.run.cache_directory.clear();
   const studies::OrganAtlasStudy study = studies::read_organ_atlas_study(config);

@@ -21,7 +21,7 @@ struct CollisionOptions {
 int run_collision(const CollisionOptions& o) {
   studies::CollisionRunOptions options;
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
-  options.config_text = studies::read_file(o.config);
+  options.config_text = config.source_text();
   options.quiet = o.quiet;
   options.plots = !o.no_plots;
   const studies::CollisionStudy study = studies::read_collision_study(config);

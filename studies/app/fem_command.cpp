@@ -23,7 +23,7 @@ int run_fem(FemOptions o, ProgramArguments arguments) {
   fem::MpiSession mpi(*arguments.argc, *arguments.argv);
   if (o.no_cache) o.run.cache_directory.clear();
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
-  o.run.config_text = studies::read_file(o.config);
+  o.run.config_text = config.source_text();
   const studies::ReferenceStudy study = studies::read_reference_study(config);
   print_defaults_filled(o.config, config.defaults_filled(), o.run.quiet || fem::MpiSession::rank() != 0);
   if (o.run.output_directory.empty()) o.run.output_directory = "output/" + study.name;

@@ -20,7 +20,7 @@ struct MfsOptions {
 
 int run_mfs(MfsOptions o) {
   studies::ConfigTable config = studies::ConfigTable::from_file(o.config);
-  o.run.config_text = studies::read_file(o.config);
+  o.run.config_text = config.source_text();
   const studies::MfsStudy study = studies::read_mfs_study(config, std::filesystem::path(o.config).parent_path().string());
   print_defaults_filled(o.config, config.defaults_filled(), o.run.quiet);
   if (o.run.output_directory.empty()) o.run.output_directory = "output/" + study.name;

@@ -58,7 +58,7 @@ int run_replay(const StudyOptions& o, const std::string& config) {
   studies::ReplayRunOptions run;
   run.output_directory = o.run.output_directory.empty() ? "output/" + study.name : o.run.output_directory;
   run.cache_directory = o.no_cache ? "" : o.run.cache_directory;
-  run.config_text = studies::read_file(config);
+  run.config_text = table.source_text();
   run.only = o.run.only;
   run.quiet = o.run.quiet;
   const nlohmann::json results = studies::run_palpation_replay(study, run);

@@ -393,7 +393,7 @@ json run_sim(const SimScene& scene_in, const SimOptions& options) {
   document["scene"] = scene.name;
   document["config"] = scene.config_path;
   document["organ_triangles"] = organ.triangles().size();
-  document["provenance"] = provenance(read_file(scene.config_path));
+  document["provenance"] = provenance(scene.config_text);
   // The scene as run (command-line overrides applied), one key per setting.
   document["params"] = sim_scene_params(scene);
   document["config_resolved"] = "config.resolved.toml";

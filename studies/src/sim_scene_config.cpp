@@ -198,6 +198,7 @@ SimScene read_sim_scene(const std::string& path) {
   const std::string directory = fs::path(path).parent_path().string();
   SimScene scene = default_scene();
   scene.config_path = path;
+  scene.config_text = config.source_text();
   read_fields(scene_fields(), config, scene);
   rt::SceneSettings& s = scene.settings;
   s.prediction.cycle_period_s = 1.0 / s.rates.haptic_hz;

@@ -338,6 +338,18 @@ TEST_F(ConfigTableFile, ReadsFileAndNamesItInErrors) {
   expect_config_error([&] { config.finish(); }, {path + ": unknown key 'problem.extra'"});
 }
 
+// The text a file was parsed from stays with it, sub-tables included: a run records what it
+// read without reading the file again.
+TEST_F(ConfigTableFile, KeepsTheTextItWasParsedFrom) {
+  const std::string text = "study = \"s\"\n[problem]\ndepth = \"1 mm\"\n";
+  const std::string path = write("kept.toml", text);
+  ConfigTable config = ConfigTable::from_file(path);
+  std::ofstream(path) << "changed";
+  EXPECT_EQ(config.source_text(), text);
+  EXPECT_EQ(config.table("problem").source_text(), text);
+  EXPECT_EQ(ConfigTable::from_string("a = 1\n", "inline").source_text(), "a = 1\n");
+}
+
 TEST_F(ConfigTableFile, ParseErrorNamesFileAndLine) {
   const std::string path = write("broken.toml", "# comment\n[problem]\ndepth = \"1 mm\n");
   expect_config_error([&] { ConfigTable::from_file(path); }, {path + ":3:"});

@@ -459,6 +459,23 @@ TEST(SimRun, ARecordingReplaysToTheSameForces) {
   EXPECT_EQ(read_file(directory.path("recorded/forces.csv")), read_file(directory.path("replayed/forces.csv")));
 }
 
+// The provenance hashes the scene file as it was read: the file is read once, so an edit made
+// while the scene runs does not change what the run says it ran.
+TEST(SimRun, TheProvenanceRecordsTheSceneAsRead) {
+  touchstone::testing::TemporaryDirectory directory("sim");
+  const std::string path = small_scene(directory);
+  const std::string as_read = read_file(path);
+  const SimScene scene = read_sim_scene(path);
+  std::ofstream(path, std::ios::app) << "# edited after it was read\n";
+  ASSERT_NE(read_file(path), as_read);
+  SimOptions options;
+  options.virtual_clock = true;
+  options.print = false;
+  options.output_directory = directory.path("run");
+  const nlohmann::json results = run_sim(scene, options);
+  EXPECT_EQ(results["provenance"]["config_sha256"], sha256_hex(as_read));
+}
+
 
 // A generated organ is cached under a name that changes with every parameter: a changed
 // parameter never reuses the old organ.

@@ -274,9 +274,10 @@ std::vector<MfsSeries> read_problem_series(const std::string& path, const toml::
 }  // namespace
 
 ComparisonStudy read_comparison_study(const std::string& path) {
-  // Syntax errors with the file and line, as every other study file.
-  { ConfigTable syntax_check = ConfigTable::from_file(path); }
-  toml::table document = toml::parse_file(path);
+  // Syntax errors with the file and line, as every other study file; the file is read once, and
+  // its text is what the run's provenance records.
+  const std::string text = ConfigTable::from_file(path).source_text();
+  toml::table document = toml::parse(text, path);
   const std::string directory = fs::path(path).parent_path().string();
   const auto take_table = [&](const char* key, const std::string& what) {
     toml::table t;
@@ -305,6 +306,7 @@ ComparisonStudy read_comparison_study(const std::string& path) {
 
   ComparisonStudy study;
   study.config_path = path;
+  study.config_text = text;
   study.name = config.string("study", fs::path(path).stem().string());
 
   // The base [problem] and [reference]: every key checked here; the problem itself is one of

@@ -45,7 +45,7 @@ class StudyRun {
   json run() {
     start_ = std::chrono::steady_clock::now();
     const bool rank0 = fem::MpiSession::rank() == 0;
-    config_text_ = study_.config_path.empty() ? std::string() : read_file(study_.config_path);
+    config_text_ = study_.config_text;
 
     // The cases of every problem; a problem with none selected skips its reference (unless it
     // is the only one: every error and the summary need it).

@@ -176,6 +176,8 @@ double parse_quantity(const std::string& text, Dimension dimension, const std::s
 
 struct ConfigTable::State {
   std::string source;  // file name shown in messages
+  // The text the whole document was parsed from (shared by the sub-tables).
+  std::shared_ptr<const std::string> text;
   std::string path;    // dotted path of this table, empty at the top level
   // Aliases the whole parsed document, so a sub-table keeps it alive.
   std::shared_ptr<const toml::table> table;
@@ -315,6 +317,7 @@ ConfigTable ConfigTable::from_file(const std::string& path) {
 ConfigTable ConfigTable::from_string(const std::string& text, const std::string& source_name) {
   auto state = std::make_shared<State>();
   state->source = source_name;
+  state->text = std::make_shared<const std::string>(text);
   try {
     state->table = std::make_shared<const toml::table>(toml::parse(text, source_name));
   } catch (const toml::parse_error& error) {
@@ -337,6 +340,7 @@ ConfigTable ConfigTable::table(const std::string& key, bool required) {
   const toml::node* node = required ? &state.require(key) : state.get(key);
   auto child = std::make_shared<State>();
   child->source = state.source;
+  child->text = state.text;
   child->path = state.dotted(key);
   child->defaults = state.defaults;
   if (node == nullptr) {
@@ -581,6 +585,8 @@ void ConfigTable::finish() const {
 std::string ConfigTable::where(const std::string& key) const { return state_->where(key); }
 
 std::vector<std::string> ConfigTable::defaults_filled() const { return state_->defaults->filled; }
+
+const std::string& ConfigTable::source_text() const { return *state_->text; }
 
 void ConfigTable::require(const std::string& key) { state_->require(key); }
 

@@ -26,6 +26,7 @@ std::string to_string(DeviceKind kind);
 struct SimScene {
   std::string name = "scene";
   std::string config_path;
+  std::string config_text;  ///< the scene file's text, as read (the run's provenance records it)
   /// The settings the scene file leaves at their defaults, "section.key = value" (printed by
   /// `touchstone sim`, so that nothing is filled in without a word).
   std::vector<std::string> defaults_filled;

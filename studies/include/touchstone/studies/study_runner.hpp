@@ -101,6 +101,7 @@ struct RegressionTolerances {
 struct ComparisonStudy {
   std::string name = "study";
   std::string config_path;  ///< the file it was read from
+  std::string config_text;  ///< its text, as read (the run's provenance records it)
   /// The problems in file order (at least one). The first one's cases give Table 2 and the
   /// summary fields of results.json ("problem", "reference_summary").
   std::vector<StudyProblem> problems;

@@ -95,6 +95,8 @@ class ConfigTable {
   /// with the unit) in the order first read; shared by the whole file, sub-tables included.
   /// The commands print it, so that nothing is filled in without a word.
   std::vector<std::string> defaults_filled() const;
+  /// The text the document was parsed from (for a run's provenance: what was read, read once).
+  const std::string& source_text() const;
 
  private:
   struct State;
