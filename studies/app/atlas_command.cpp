@@ -44,8 +44,8 @@ void add_atlas_command(CLI::App& program, std::vector<Command>& commands, Progra
                "trace = the punch fields on the cut) by FEM per sample contact, Richardson-extrapolated, with the "
                "half-space closed form; writes organ_atlas.json and results.json");
   atlas_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/atlas_hemisphere.toml (benchmark B1 or B2) or studies/configs/atlas_stomach.toml (benchmark = \"organ\": [organ] surface or generate, attachment_*; [atlas] region_centre, region_radius, sample_spacing)")
-      ->required()->check(CLI::ExistingFile);
-  atlas_cmd->add_option("--out", o->output, "Output folder (default: output/<study name>)");
+      ->required()->check(readable_file);
+  atlas_cmd->add_option("--out", o->output, "Output folder (default: output/<study name>)")->check(output_folder);
   atlas_cmd->add_option("--cache", o->run.cache_directory, "Cache of finished solves")->capture_default_str();
   atlas_cmd->add_flag("--no-cache", o->no_cache, "Solve everything again and cache nothing");
   atlas_cmd->add_flag("--quiet", o->quiet, "Print only errors");

@@ -41,8 +41,8 @@ void add_collision_command(CLI::App& program, std::vector<Command>& commands) {
                    "predicted-point error, per-cycle cost with and without prediction; writes results.json, "
                    "CSV tables and report.md");
   collision_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/collision_table1.toml")
-      ->required()->check(CLI::ExistingFile);
-  collision_cmd->add_option("--out", o->output, "Output folder (default: output/<study name>)");
+      ->required()->check(readable_file);
+  collision_cmd->add_option("--out", o->output, "Output folder (default: output/<study name>)")->check(output_folder);
   collision_cmd->add_flag("--quiet", o->quiet, "Print only errors");
   collision_cmd->add_flag("--no-plots", o->no_plots, "No PNG plots (the collision report then needs no matplotlib)");
   commands.push_back({collision_cmd, [o] { return run_collision(*o); }});

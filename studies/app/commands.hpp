@@ -35,6 +35,12 @@ void write_short_report(const std::string& kind, const std::string& output_direc
 /// (ConfigTable::defaults_filled), so that no default is filled in without a word.
 void print_defaults_filled(const std::string& config_path, const std::vector<std::string>& filled, bool quiet);
 
+/// An input file on the command line: it exists and is a regular file (a pipe or a device
+/// would block the read or never end it; a folder cannot be read), checked before any work.
+extern const CLI::Validator readable_file;
+/// An output folder on the command line: absent (it is made) or a folder, not a file.
+extern const CLI::Validator output_folder;
+
 void add_mesh_command(CLI::App& program, std::vector<Command>& commands);
 void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);
 void add_mfs_command(CLI::App& program, std::vector<Command>& commands);

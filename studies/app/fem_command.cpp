@@ -42,8 +42,8 @@ void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramA
   CLI::App* fem_cmd = program.add_subcommand(
       "fem", "Converged deal.II reference: solve on successive meshes, Richardson-extrapolate the force, "
              "write results.json, VTU/PVD (run under mpirun -np N for N processes)");
-  fem_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/b2_reference.toml, or studies/configs/organ_hemisphere.toml for an organ surface file ([geometry] benchmark = \"organ\", [organ] surface)")->required()->check(CLI::ExistingFile);
-  fem_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)");
+  fem_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/b2_reference.toml, or studies/configs/organ_hemisphere.toml for an organ surface file ([geometry] benchmark = \"organ\", [organ] surface)")->required()->check(readable_file);
+  fem_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)")->check(output_folder);
   fem_cmd->add_option("--cache", o->run.cache_directory, "Cache of finished solves, keyed by inputs and code version")
       ->capture_default_str();
   fem_cmd->add_flag("--no-cache", o->no_cache, "Solve everything again and cache nothing");

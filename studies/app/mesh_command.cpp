@@ -50,7 +50,7 @@ int run_mesh(const MeshOptions& o) {
 void add_mesh_command(CLI::App& program, std::vector<Command>& commands) {
   auto o = std::make_shared<MeshOptions>();
   CLI::App* mesh = program.add_subcommand("mesh", "Generate the gmsh meshes of a study's benchmark geometry (MSH 2.2)");
-  mesh->add_option("config", o->config, "Study file (TOML) with [geometry] and [mesh]")->required()->check(CLI::ExistingFile);
+  mesh->add_option("config", o->config, "Study file (TOML) with [geometry] and [mesh]")->required()->check(readable_file);
   mesh->add_option("--refinement", o->refinement, "Only this refinement level (each level halves every size)")
       ->check(CLI::Range(0, 6));
   mesh->add_option("--out", o->output, "Output folder, or a .msh path when one level is asked for")->capture_default_str();

@@ -43,8 +43,8 @@ void add_mfs_command(CLI::App& program, std::vector<Command>& commands) {
   CLI::App* mfs_cmd = program.add_subcommand(
       "mfs", "MFS local model (Method of Finite Spheres): one case per contact condition and node count; "
              "writes results.json, config.resolved.toml and one node-cloud VTU per case");
-  mfs_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/mfs_b3.toml")->required()->check(CLI::ExistingFile);
-  mfs_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)");
+  mfs_cmd->add_option("config", o->config, "Study file (TOML), e.g. studies/configs/mfs_b3.toml")->required()->check(readable_file);
+  mfs_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)")->check(output_folder);
   mfs_cmd->add_flag("--quiet", o->run.quiet, "Print only errors");
   commands.push_back({mfs_cmd, [o] { return run_mfs(*o); }});
 }

@@ -73,13 +73,13 @@ void add_sim_command(CLI::App& program, std::vector<Command>& commands) {
       "sim", "Run a scene: haptic (1 kHz), model (~200 Hz) and graphics (30 Hz) loops with a device, until the "
              "trajectory ends, the device disconnects or Ctrl-C; prints and writes summary.json");
   sim_cmd->add_option("scene", o->scene, "Scene file (TOML), e.g. studies/configs/scenes/palpation.toml")
-      ->required()->check(CLI::ExistingFile);
+      ->required()->check(readable_file);
   sim_cmd->add_option("--duration", o->duration_s, "Run length [s] (overrides the scene; 0: until the device ends)")
       ->check(finite_non_negative);
-  sim_cmd->add_option("--out", o->output, "Output folder (default: the scene's [output] directory)");
+  sim_cmd->add_option("--out", o->output, "Output folder (default: the scene's [output] directory)")->check(output_folder);
   sim_cmd->add_option("--record", o->record, "Record every tick's pose and force as CSV (replay with device.kind = \"replay\")");
   sim_cmd->add_option("--replay", o->replay, "Play a recording (from --record) instead of the scene's device")
-      ->check(CLI::ExistingFile);
+      ->check(readable_file);
   sim_cmd->add_option("--force-mode", o->force_mode, "Override the scene's force mode")
       ->check(CLI::IsMember({"stiffness", "extrapolation"}));
   sim_cmd->add_flag("--virtual", o->virtual_clock, "Study mode: lock-step on a virtual clock, bit-reproducible");

@@ -124,7 +124,7 @@ void add_study_command(CLI::App& program, std::vector<Command>& commands, Progra
                         "Study file (TOML), e.g. studies/configs/hemisphere.toml; a file with a [replay] table "
                         "(studies/configs/palpation_replay.toml) replays a palpation through both models; or: accept <config>")
       ->required()->expected(1, 2);
-  study_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)");
+  study_cmd->add_option("--out", o->run.output_directory, "Output folder (default: output/<study name>)")->check(output_folder);
   study_cmd->add_option("--only", o->run.only,
                         "Run only MFS cases whose id contains this text (repeatable); a problem variant's ids start "
                         "with '<variant>/', so --only nu0p49/ runs one variant (and only its FEM reference)");

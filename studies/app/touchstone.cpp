@@ -2,14 +2,35 @@
 // each.
 #include "commands.hpp"
 
+#include "touchstone/geometry/regular_file.hpp"
 #include "touchstone/realtime/runtime/loop_timing.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/report_launcher.hpp"
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
+
+const CLI::Validator touchstone::app::readable_file(
+    [](std::string& path) -> std::string {
+      if (const std::string reason = touchstone::geometry::non_regular_file_reason(path); !reason.empty())
+        return "'" + path + "' cannot be read (" + reason + ")";
+      std::error_code error;
+      if (!std::filesystem::exists(path, error)) return "no such file '" + path + "'";
+      return "";
+    },
+    "FILE");
+
+const CLI::Validator touchstone::app::output_folder(
+    [](std::string& path) -> std::string {
+      std::error_code error;
+      if (std::filesystem::exists(path, error) && !std::filesystem::is_directory(path, error))
+        return "'" + path + "' exists and is not a folder (the output folder holds several files)";
+      return "";
+    },
+    "FOLDER");
 
 void touchstone::app::write_short_report(const std::string& kind, const std::string& output_directory, bool quiet) {
   studies::ReportLaunchOptions options;

@@ -61,6 +61,16 @@ for command in ("mesh", "fem", "mfs", "study", "atlas", "sim", "collision"):
         check(f"{command} {path}", [command, path, "--out", str(out)], BAD_INPUT, "device, pipe or socket, not a regular file",
               absent=[out], timeout=60)
 
+# --- Command-line paths: --out that is a file, a recording to replay that is a pipe ------------
+a_file = scratch / "a_file"
+a_file.write_text("not a folder\n")
+for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.toml"), ("study", "ci_accuracy.toml"),
+                        ("atlas", "atlas_hemisphere.toml"), ("collision", "collision_table1.toml"), ("sim", "scenes/palpation.toml")]:
+    check(f"{command} --out a file", [command, str(configs / config), "--out", str(a_file)], BAD_INPUT,
+          f"'{a_file}' exists and is not a folder", timeout=60)
+check("sim --replay a pipe", ["sim", scene, "--virtual", "--replay", str(fifo), "--out", str(scratch / "replay_pipe")], BAD_INPUT,
+      "cannot be read (it is a device, pipe or socket, not a regular file)", absent=[scratch / "replay_pipe"], timeout=60)
+
 # --- A file the config names (an organ surface, an atlas) that is a pipe or a folder -------------
 named_pipe = scratch / "organ.obj"
 os.mkfifo(named_pipe)
