@@ -71,28 +71,6 @@ for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.
 check("sim --replay a pipe", ["sim", scene, "--virtual", "--replay", str(fifo), "--out", str(scratch / "replay_pipe")], BAD_INPUT,
       "cannot be read (it is a device, pipe or socket, not a regular file)", absent=[scratch / "replay_pipe"], timeout=60)
 
-# --- A file the config names (an organ surface, an atlas) that is a pipe or a folder -------------
-named_pipe = scratch / "organ.obj"
-os.mkfifo(named_pipe)
-folder_named = scratch / "atlas_folder"
-folder_named.mkdir()
-for command, base_text, text, path, named in [
-        ("sim", '[organ]\nshape = "stomach"', '[organ]\nsurface = "{}"', named_pipe, "organ.surface"),
-        ("sim", '"../atlases/stomach.json"', '"{}"', folder_named, "organ.atlas"),
-        ("mfs", '[sprinkling]', '[organ]\nsurface = "{}"\n[sprinkling]', named_pipe, "organ.surface"),
-        ("mfs", '[sprinkling]', '[organ]\natlas = "{}"\n[sprinkling]', folder_named, "organ.atlas")]:
-    folder = scratch / f"named_file_{command}_{path.name}"
-    folder.mkdir()
-    base = (configs / "scenes" / "palpation.toml").read_text() if command == "sim" else None
-    base = base or """study = "cli_check"\n[geometry]\nbenchmark = "B2"\nbody_radius = "50 mm"\ntool_radius = "2.5 mm"
-[material]\nyoungs_modulus = "10 kPa"\npoisson_ratio = 0.45\n[tool]\ndepth = "0.25 mm"\n[sprinkling]\nnode_count = [34]\n"""
-    if base_text not in base:
-        sys.exit(f"check_cli_errors.py: '{base_text}' is not in the {command} base config (the shipped config changed?)")
-    (folder / "bad.toml").write_text(base.replace(base_text, text.format(path), 1))
-    reason = "it is a folder" if path.is_dir() else "it is a device, pipe or socket, not a regular file"
-    check(f"{command}: {named} is {path.name}", [command, str(folder / "bad.toml"), "--out", str(folder / "out")], BAD_INPUT,
-          f"{named}: cannot read '{path}' ({reason}", absent=[folder / "out"], timeout=60)
-
 # --- `surface check` of a surface whose coordinates overflow its sizes: the defect, never inf or nan
 huge = scratch / "huge.obj"
 huge.write_text("v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
@@ -161,6 +139,28 @@ COLLISION = (configs / "collision_table1.toml").read_text()
 
 BASES = {"mesh": FEM, "fem": FEM, "mfs": MFS, "study": STUDY, "atlas": ATLAS, "sim": SCENE, "collision": COLLISION}
 EXTRA_ARGS = {"sim": ["--virtual", "--duration", "5"]}  # one palpation: 4.8 s
+
+# --- A file the config names (an organ surface, an atlas) that is a pipe or a folder -------------
+named_pipe = scratch / "organ.obj"
+os.mkfifo(named_pipe)
+folder_named = scratch / "atlas_folder"
+folder_named.mkdir()
+shipped_atlas = f'"{configs / "atlases" / "stomach.json"}"'
+for command, base_text, text, path, named in [
+        ("sim", '[organ]\nshape = "stomach"', '[organ]\nsurface = "{}"', named_pipe, "organ.surface"),
+        ("sim", shipped_atlas, '"{}"', folder_named, "organ.atlas"),
+        ("mfs", '[sprinkling]', '[organ]\nsurface = "{}"\n[sprinkling]', named_pipe, "organ.surface"),
+        ("mfs", '[sprinkling]', '[organ]\natlas = "{}"\n[sprinkling]', folder_named, "organ.atlas")]:
+    folder = scratch / f"named_file_{command}_{path.name}"
+    folder.mkdir()
+    base = BASES[command]
+    if base_text not in base:
+        sys.exit(f"check_cli_errors.py: '{base_text}' is not in the {command} base config (the shipped config changed?)")
+    (folder / "bad.toml").write_text(base.replace(base_text, text.format(path), 1))
+    reason = "it is a folder" if path.is_dir() else "it is a device, pipe or socket, not a regular file"
+    check(f"{command}: {named} is {path.name}", [command, str(folder / "bad.toml"), "--out", str(folder / "out")], BAD_INPUT,
+          f"{named}: cannot read '{path}' ({reason}", absent=[folder / "out"], timeout=60)
+
 
 # class → subcommand → (text replaced, replacement, text the error must contain).
 MATERIAL_READERS = ("mesh", "fem", "mfs", "study", "atlas", "sim")

@@ -401,9 +401,8 @@ TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
     std::shuffle(set->points.begin(), set->points.end(), shuffle);
   }
   EXPECT_EQ(radii_of({&permuted.cut, &permuted.free_surface, &permuted.volume, &permuted.patch}), radii);
-  // The radii by their definition, with a full sort at every node and point: the selection
-  // (bounded by the previous point, in the rules' order and in a shuffled one) must agree bit
-  // for bit.
+  // The radii by their definition, with a full sort at every node and point: the function's
+  // nearest-node selections must agree with it bit for bit.
   const std::size_t n = cloud.positions.size();
   std::vector<double> defined(n);
   for (std::size_t j = 0; j < n; ++j) {
