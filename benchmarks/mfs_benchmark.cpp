@@ -331,26 +331,61 @@ void BM_EnrichedSprinkle(benchmark::State& state) {
   state.counters["N"] = nodes;
 }
 
+/// The default's settings at the benchmark's node count (state.range(0)), the rules chosen.
+touchstone::realtime::mfs::EnrichedSettings enriched_settings_for(const benchmark::State& state) {
+  namespace mfs = touchstone::realtime::mfs;
+  return mfs::quadratures_for_node_count(mfs::settings_for_material(mfs::EnrichedSettings{}, tissue()),
+                                         static_cast<std::size_t>(state.range(0)));
+}
+
+/// The enriched rules at a contact; false (the benchmark marked skipped) if they fail.
+bool contact_quadratures(benchmark::State& state, const ToolContact& contact,
+                         const touchstone::realtime::mfs::LocalSurface& surface,
+                         const touchstone::realtime::mfs::EnrichedSettings& settings,
+                         touchstone::realtime::mfs::EnrichedQuadratures& quadratures) {
+  namespace mfs = touchstone::realtime::mfs;
+  mfs::PunchFrame frame;
+  std::string failure;
+  if (mfs::enriched_quadratures(surface, contact, local_radius_m, settings, mfs::PatchQuadrature{}, quadratures, frame,
+                                failure))
+    return true;
+  state.SkipWithError(failure.c_str());
+  return false;
+}
+
 void BM_EnrichedQuadratures(benchmark::State& state) {
   namespace mfs = touchstone::realtime::mfs;
   const ToolContact contact = pole_contact();
   const mfs::LocalSurface surface(organ(), contact.point, local_surface_reach_m);
-  const mfs::EnrichedSettings settings = mfs::quadratures_for_node_count(
-      mfs::settings_for_material(mfs::EnrichedSettings{}, tissue()), static_cast<std::size_t>(state.range(0)));
+  const mfs::EnrichedSettings settings = enriched_settings_for(state);
   mfs::EnrichedQuadratures quadratures;
   for (auto _ : state) {
-    mfs::PunchFrame frame;
-    std::string failure;
-    if (!mfs::enriched_quadratures(surface, contact, local_radius_m, settings, mfs::PatchQuadrature{}, quadratures, frame,
-                                   failure)) {
-      state.SkipWithError(failure.c_str());
-      break;
-    }
+    if (!contact_quadratures(state, contact, surface, settings, quadratures)) break;
     benchmark::DoNotOptimize(quadratures.volume.points.data());
   }
   state.counters["volume_points"] = static_cast<double>(quadratures.volume.points.size());
   state.counters["boundary_points"] = static_cast<double>(
       quadratures.patch.points.size() + quadratures.free_surface.points.size() + quadratures.cut.points.size());
+}
+
+/// The build's support radii alone (enriched_support_radii) over every rule's points: the
+/// nearest-node selections of the points that see too few nodes are most of it on small clouds.
+void BM_EnrichedSupportRadii(benchmark::State& state) {
+  namespace mfs = touchstone::realtime::mfs;
+  const ToolContact contact = pole_contact();
+  const mfs::LocalSurface surface(organ(), contact.point, local_surface_reach_m);
+  const mfs::EnrichedSettings settings = enriched_settings_for(state);
+  mfs::EnrichedQuadratures quadratures;
+  if (!contact_quadratures(state, contact, surface, settings, quadratures)) return;
+  const auto cloud = mfs::sprinkle_even_nodes(surface, contact, static_cast<int>(state.range(0)), local_radius_m);
+  const std::vector<const mfs::PatchQuadrature*> sets = {&quadratures.volume, &quadratures.patch, &quadratures.free_surface,
+                                                         &quadratures.cut, &quadratures.clamped};
+  for (auto _ : state) {
+    const std::vector<double> radii =
+        mfs::enriched_support_radii(cloud.positions, sets, settings.support_neighbours, settings.min_point_neighbours);
+    benchmark::DoNotOptimize(radii.data());
+  }
+  state.counters["N"] = static_cast<double>(cloud.size());
 }
 
 /// The same build with every shell of the volume rule at the full angular counts (the rule
@@ -422,6 +457,7 @@ BENCHMARK(BM_BuildEnriched)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillis
 BENCHMARK(BM_EnrichedLocalSurface)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnrichedSprinkle)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnrichedQuadratures)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnrichedSupportRadii)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_BuildEnrichedUniformShells)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnrichedProjected)->Arg(34)->Arg(60)->Arg(200)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BuildEnrichedBonded)->Arg(34)->Arg(60)->Unit(benchmark::kMillisecond);

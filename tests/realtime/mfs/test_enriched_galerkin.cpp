@@ -21,6 +21,7 @@
 #include <random>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace touchstone::realtime::mfs {
 namespace {
@@ -381,6 +382,40 @@ TEST(LocalSurface, DepthAloneEqualsDepthWithDerivativesAndTheirDifferences) {
 // The supports are grown so that every quadrature point sees min_point_neighbours nodes, and
 // they must not depend on the order in which the points come: reversing and shuffling every
 // rule gives the same radii, bit for bit.
+/// The support radii by their definition, with a full sort at every node and point: the
+/// k-nearest radii, each grown to cover (with a 1.2 margin) the points that see fewer than
+/// `need` nodes, judged against the k-nearest radii alone.
+std::vector<double> support_radii_by_definition(const std::vector<Eigen::Vector3d>& nodes,
+                                                const std::vector<const PatchQuadrature*>& sets, int k, int need) {
+  const std::size_t n = nodes.size();
+  std::vector<double> defined(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    std::vector<double> d;
+    for (const Eigen::Vector3d& y : nodes) d.push_back((y - nodes[j]).norm());
+    std::sort(d.begin(), d.end());
+    defined[j] = d[static_cast<std::size_t>(k)];
+  }
+  const std::vector<double> nearest_only = defined;
+  for (const PatchQuadrature* set : sets)
+    for (const Eigen::Vector3d& x : set->points) {
+      std::vector<double> squared;
+      int seen = 0;
+      for (std::size_t j = 0; j < n; ++j) {
+        const Eigen::Vector3d d = nodes[j] - x;
+        squared.push_back(d.x() * d.x() + d.y() * d.y() + d.z() * d.z());
+        seen += squared.back() < nearest_only[j] * nearest_only[j] ? 1 : 0;
+      }
+      if (seen >= need) continue;
+      std::vector<double> sorted = squared;
+      std::sort(sorted.begin(), sorted.end());
+      const double within = sorted[static_cast<std::size_t>(need - 1)];
+      for (std::size_t j = 0; j < n; ++j)
+        if (squared[j] <= within) defined[j] = std::max(defined[j], 1.2 * std::sqrt(squared[j]));
+    }
+  return defined;
+}
+
+// 45 and 100 nodes: the nearest-node selection counts on small clouds and inserts on larger ones.
 TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
   const ToolContact contact = testing::pole_contact();
   const LocalSurface surface(testing::hemisphere(), contact.point, 1.3 * length);
@@ -389,57 +424,59 @@ TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
   PunchFrame frame;
   std::string failure;
   ASSERT_TRUE(enriched_quadratures(surface, contact, length, settings, {}, q, frame, failure)) << failure;
-  const NodeCloud cloud = sprinkle_even_nodes(surface, contact, 45, length, 1);
-  const auto radii_of = [&](const std::vector<const PatchQuadrature*>& sets) {
-    return enriched_support_radii(cloud.positions, sets, settings.support_neighbours, settings.min_point_neighbours);
-  };
-  const std::vector<double> radii = radii_of({&q.volume, &q.patch, &q.free_surface, &q.cut});
-  EnrichedQuadratures permuted = q;
-  std::mt19937 shuffle(7);
-  for (PatchQuadrature* set : {&permuted.volume, &permuted.patch, &permuted.free_surface, &permuted.cut}) {
-    std::reverse(set->points.begin(), set->points.end());
-    std::shuffle(set->points.begin(), set->points.end(), shuffle);
-  }
-  EXPECT_EQ(radii_of({&permuted.cut, &permuted.free_surface, &permuted.volume, &permuted.patch}), radii);
-  // The radii by their definition, with a full sort at every node and point: the function's
-  // nearest-node selections must agree with it bit for bit.
-  const std::size_t n = cloud.positions.size();
-  std::vector<double> defined(n);
-  for (std::size_t j = 0; j < n; ++j) {
-    std::vector<double> d;
-    for (const Eigen::Vector3d& y : cloud.positions) d.push_back((y - cloud.positions[j]).norm());
-    std::sort(d.begin(), d.end());
-    defined[j] = d[static_cast<std::size_t>(settings.support_neighbours)];
-  }
-  const std::vector<double> nearest_only = defined;
-  for (const PatchQuadrature* set : {&q.volume, &q.patch, &q.free_surface, &q.cut})
-    for (const Eigen::Vector3d& x : set->points) {
-      std::vector<double> squared;
-      int seen = 0;
-      for (std::size_t j = 0; j < n; ++j) {
-        const Eigen::Vector3d d = cloud.positions[j] - x;
-        squared.push_back(d.x() * d.x() + d.y() * d.y() + d.z() * d.z());
-        seen += squared.back() < nearest_only[j] * nearest_only[j] ? 1 : 0;
+  for (const int requested : {45, 100}) {
+    SCOPED_TRACE(std::to_string(requested) + " nodes requested");
+    const NodeCloud cloud = sprinkle_even_nodes(surface, contact, requested, length, 1);
+    const auto radii_of = [&](const std::vector<const PatchQuadrature*>& sets) {
+      return enriched_support_radii(cloud.positions, sets, settings.support_neighbours, settings.min_point_neighbours);
+    };
+    const std::vector<double> radii = radii_of({&q.volume, &q.patch, &q.free_surface, &q.cut});
+    EnrichedQuadratures permuted = q;
+    std::mt19937 shuffle(7);
+    for (PatchQuadrature* set : {&permuted.volume, &permuted.patch, &permuted.free_surface, &permuted.cut}) {
+      std::reverse(set->points.begin(), set->points.end());
+      std::shuffle(set->points.begin(), set->points.end(), shuffle);
+    }
+    EXPECT_EQ(radii_of({&permuted.cut, &permuted.free_surface, &permuted.volume, &permuted.patch}), radii);
+    // The function's nearest-node selections must agree with the definition bit for bit.
+    EXPECT_EQ(radii, support_radii_by_definition(cloud.positions, {&q.volume, &q.patch, &q.free_surface, &q.cut},
+                                                 settings.support_neighbours, settings.min_point_neighbours));
+    // Every point sees enough nodes, and some supports did grow (else the test shows nothing).
+    int grown = 0;
+    const std::vector<double> nearest = radii_of({});
+    for (std::size_t j = 0; j < radii.size(); ++j) grown += radii[j] > nearest[j] ? 1 : 0;
+    EXPECT_GT(grown, 0);
+    for (const PatchQuadrature* set : {&q.volume, &q.patch, &q.free_surface, &q.cut})
+      for (const Eigen::Vector3d& x : set->points) {
+        int seen = 0;
+        for (std::size_t j = 0; j < radii.size(); ++j) seen += (cloud.positions[j] - x).norm() < radii[j] ? 1 : 0;
+        ASSERT_GE(seen, settings.min_point_neighbours);
       }
-      if (seen >= settings.min_point_neighbours) continue;
-      std::vector<double> sorted = squared;
-      std::sort(sorted.begin(), sorted.end());
-      const double within = sorted[static_cast<std::size_t>(settings.min_point_neighbours - 1)];
-      for (std::size_t j = 0; j < n; ++j)
-        if (squared[j] <= within) defined[j] = std::max(defined[j], 1.2 * std::sqrt(squared[j]));
+  }
+}
+
+// A lattice ties many distances exactly (a cell's centre is as far from its eight corners, and
+// the nodes on an axis through it pair up): the need-th nearest must come out as a sort gives
+// it, through either selection (64 nodes count, 125 insert).
+TEST(EnrichedGalerkin, SupportRadiiResolveTiedDistancesAsASortDoes) {
+  for (const int side : {4, 5}) {
+    SCOPED_TRACE(std::to_string(side * side * side) + " lattice nodes");
+    const double spacing_m = 1e-3;
+    std::vector<Eigen::Vector3d> nodes;
+    PatchQuadrature centres;
+    for (int i = 0; i < side; ++i)
+      for (int j = 0; j < side; ++j)
+        for (int k = 0; k < side; ++k) {
+          nodes.push_back(spacing_m * Eigen::Vector3d(i, j, k));
+          if (i + 1 < side && j + 1 < side && k + 1 < side) centres.points.push_back(spacing_m * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5));
+        }
+    // Points far out on the axes see no node within the nearest radii: each selects among ties.
+    for (int axis = 0; axis < 3; ++axis) centres.points.push_back(Eigen::Vector3d::Unit(axis) * (side + 3) * spacing_m);
+    for (const int need : {8, 14, 27}) {
+      SCOPED_TRACE("need " + std::to_string(need));
+      EXPECT_EQ(enriched_support_radii(nodes, {&centres}, 6, need), support_radii_by_definition(nodes, {&centres}, 6, need));
     }
-  EXPECT_EQ(radii, defined);
-  // Every point sees enough nodes, and some supports did grow (else the test shows nothing).
-  int grown = 0;
-  const std::vector<double> nearest = radii_of({});
-  for (std::size_t j = 0; j < radii.size(); ++j) grown += radii[j] > nearest[j] ? 1 : 0;
-  EXPECT_GT(grown, 0);
-  for (const PatchQuadrature* set : {&q.volume, &q.patch, &q.free_surface, &q.cut})
-    for (const Eigen::Vector3d& x : set->points) {
-      int seen = 0;
-      for (std::size_t j = 0; j < radii.size(); ++j) seen += (cloud.positions[j] - x).norm() < radii[j] ? 1 : 0;
-      ASSERT_GE(seen, settings.min_point_neighbours);
-    }
+  }
 }
 
 // The volume rule's inner shells (within 1.25 a of the contact point) take half the angular
