@@ -40,6 +40,10 @@ void print_defaults_filled(const std::string& config_path, const std::vector<std
 extern const CLI::Validator readable_file;
 /// An output folder on the command line: absent (it is made) or a folder, not a file.
 extern const CLI::Validator output_folder;
+/// An output file on the command line that is written when the work ends (a recording, a
+/// geometry script): absent or a regular file, in a folder that exists, so that a run is not
+/// lost to a path that could never be written.
+extern const CLI::Validator output_file;
 
 void add_mesh_command(CLI::App& program, std::vector<Command>& commands);
 void add_fem_command(CLI::App& program, std::vector<Command>& commands, ProgramArguments arguments);

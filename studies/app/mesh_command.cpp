@@ -54,7 +54,7 @@ void add_mesh_command(CLI::App& program, std::vector<Command>& commands) {
   mesh->add_option("--refinement", o->refinement, "Only this refinement level (each level halves every size)")
       ->check(CLI::Range(0, 6));
   mesh->add_option("--out", o->output, "Output folder, or a .msh path when one level is asked for")->capture_default_str();
-  mesh->add_option("--geo", o->geo_output, "Also write the geometry as a gmsh script (.geo_unrolled)");
+  mesh->add_option("--geo", o->geo_output, "Also write the geometry as a gmsh script (.geo_unrolled)")->check(output_file);
   commands.push_back({mesh, [o] { return run_mesh(*o); }});
 }
 

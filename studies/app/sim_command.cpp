@@ -77,7 +77,8 @@ void add_sim_command(CLI::App& program, std::vector<Command>& commands) {
   sim_cmd->add_option("--duration", o->duration_s, "Run length [s] (overrides the scene; 0: until the device ends)")
       ->check(finite_non_negative);
   sim_cmd->add_option("--out", o->output, "Output folder (default: the scene's [output] directory)")->check(output_folder);
-  sim_cmd->add_option("--record", o->record, "Record every tick's pose and force as CSV (replay with device.kind = \"replay\")");
+  sim_cmd->add_option("--record", o->record, "Record every tick's pose and force as CSV (replay with device.kind = \"replay\")")
+      ->check(output_file);
   sim_cmd->add_option("--replay", o->replay, "Play a recording (from --record) instead of the scene's device")
       ->check(readable_file);
   sim_cmd->add_option("--force-mode", o->force_mode, "Override the scene's force mode")

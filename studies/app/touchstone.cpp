@@ -32,6 +32,18 @@ const CLI::Validator touchstone::app::output_folder(
     },
     "FOLDER");
 
+const CLI::Validator touchstone::app::output_file(
+    [](std::string& path) -> std::string {
+      if (const std::string reason = touchstone::geometry::non_regular_file_reason(path); !reason.empty())
+        return "'" + path + "' cannot be written (" + reason + ")";
+      const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+      std::error_code error;
+      if (!folder.empty() && !std::filesystem::is_directory(folder, error))
+        return "'" + path + "' cannot be written (no folder '" + folder.string() + "')";
+      return "";
+    },
+    "FILE");
+
 void touchstone::app::write_short_report(const std::string& kind, const std::string& output_directory, bool quiet) {
   studies::ReportLaunchOptions options;
   if (quiet) options.arguments.push_back("--quiet");

@@ -70,6 +70,16 @@ for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.
           f"'{a_file}' exists and is not a folder", timeout=60)
 check("sim --replay a pipe", ["sim", scene, "--virtual", "--replay", str(fifo), "--out", str(scratch / "replay_pipe")], BAD_INPUT,
       "cannot be read (it is a device, pipe or socket, not a regular file)", absent=[scratch / "replay_pipe"], timeout=60)
+# A file written when the work ends (a recording after the whole session, a geometry script after
+# the meshes): a folder, a pipe or a missing folder is refused before the work, not after it.
+for name, path, text in [("a folder", scratch, "it is a folder"), ("a pipe", fifo, "it is a device, pipe or socket"),
+                         ("in a missing folder", scratch / "missing" / "rec.csv", f"no folder '{scratch / 'missing'}'")]:
+    out = scratch / "record_out"
+    check(f"sim --record {name}", ["sim", scene, "--virtual", "--record", str(path), "--out", str(out)], BAD_INPUT,
+          f"'{path}' cannot be written ({text}", absent=[out], timeout=60)
+    out = scratch / "geo_out"
+    check(f"mesh --geo {name}", ["mesh", str(configs / "b2_paper_size.toml"), "--geo", str(path), "--out", str(out)], BAD_INPUT,
+          f"'{path}' cannot be written ({text}", absent=[out], timeout=60)
 
 # --- `surface check` of a surface whose coordinates overflow its sizes: the defect, never inf or nan
 huge = scratch / "huge.obj"
