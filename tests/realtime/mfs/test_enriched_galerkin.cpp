@@ -379,9 +379,6 @@ TEST(LocalSurface, DepthAloneEqualsDepthWithDerivativesAndTheirDifferences) {
     }
 }
 
-// The supports are grown so that every quadrature point sees min_point_neighbours nodes, and
-// they must not depend on the order in which the points come: reversing and shuffling every
-// rule gives the same radii, bit for bit.
 /// The support radii by their definition, with a full sort at every node and point: the
 /// k-nearest radii, each grown to cover (with a 1.2 margin) the points that see fewer than
 /// `need` nodes, judged against the k-nearest radii alone.
@@ -415,7 +412,10 @@ std::vector<double> support_radii_by_definition(const std::vector<Eigen::Vector3
   return defined;
 }
 
-// 45 and 100 nodes: the nearest-node selection counts on small clouds and inserts on larger ones.
+// The supports are grown so that every quadrature point sees min_point_neighbours nodes, and
+// they must not depend on the order in which the points come: reversing and shuffling every
+// rule gives the same radii, bit for bit. At 45 and 100 nodes: the nearest-node selection counts
+// on small clouds and inserts on larger ones.
 TEST(EnrichedGalerkin, SupportRadiiDoNotDependOnThePointOrder) {
   const ToolContact contact = testing::pole_contact();
   const LocalSurface surface(testing::hemisphere(), contact.point, 1.3 * length);
