@@ -383,48 +383,57 @@ MlsStatus finish_from_inverse(const Eigen::Matrix<double, M, M>& inverse, Deriva
   return MlsStatus::ok;
 }
 
-/// Four points side by side, one per lane of a vector: the quadratic basis with the quartic
-/// spline weight at support scale 1, every node a candidate. The moment sums and the 10 × 10
-/// inverses are those of evaluate_fixed<10> lane by lane (the same operations in the same
-/// order per entry; only the exact condition number's column sums may round differently).
-/// Whatever evaluate_fixed would not finish at scale 1 (too few nodes, a singular or
-/// ill-conditioned A, a non-finite input) goes back to the one-point evaluation, which then
-/// grows the supports as it always does.
+/// Four points side by side, one per lane of a vector: either basis with the quartic spline
+/// weight at support scale 1, every node a candidate. The moment sums and the M × M inverses
+/// are those of evaluate_fixed<M> lane by lane (the same operations in the same order per
+/// entry; only the exact condition number's column sums may round differently). Whatever
+/// evaluate_fixed would not finish at scale 1 (too few nodes, a singular or ill-conditioned A,
+/// a non-finite input) goes back to the one-point evaluation, which then grows the supports as
+/// it always does.
 using Lanes = Eigen::Array4d;
 constexpr int lane_count = 4;
-constexpr int quadratic_terms = 10;
 
-/// invert_spd<10> on four matrices at once (entry [i][j], i ≥ j, of the lower triangle; lane k
+/// invert_spd<M> on four matrices at once (entry [i][j], i ≥ j, of the lower triangle; lane k
 /// of each entry belongs to matrix k). ok[k] is false where matrix k is not positive definite.
-void invert_spd_lanes(const Lanes (&a)[quadratic_terms][quadratic_terms], Lanes (&inverse)[quadratic_terms][quadratic_terms],
-                      bool (&ok)[lane_count]) noexcept {
-  cholesky_inverse<quadratic_terms, Lanes>([&](int i, int j) { return a[i][j]; },
-                                           [&](int i, int j, const Lanes& v) { inverse[i][j] = inverse[j][i] = v; },
-                                           [&](Lanes& pivot) {
-                                             for (int k = 0; k < lane_count; ++k)
-                                               if (!(pivot[k] > 0.0)) {
-                                                 ok[k] = false;
-                                                 pivot[k] = 1.0;  // keeps the other lanes finite; this lane is dropped
-                                               }
-                                             return true;
-                                           });
+template <int M>
+void invert_spd_lanes(const Lanes (&a)[M][M], Lanes (&inverse)[M][M], bool (&ok)[lane_count]) noexcept {
+  cholesky_inverse<M, Lanes>([&](int i, int j) { return a[i][j]; },
+                             [&](int i, int j, const Lanes& v) { inverse[i][j] = inverse[j][i] = v; },
+                             [&](Lanes& pivot) {
+                               for (int k = 0; k < lane_count; ++k)
+                                 if (!(pivot[k] > 0.0)) {
+                                   ok[k] = false;
+                                   pivot[k] = 1.0;  // keeps the other lanes finite; this lane is dropped
+                                 }
+                               return true;
+                             });
 }
 
 /// Largest column sum of |S| for the symmetric matrices whose lower triangles are in s.
-Lanes norm_1_lanes(const Lanes (&s)[quadratic_terms][quadratic_terms]) noexcept {
+template <int M>
+Lanes norm_1_lanes(const Lanes (&s)[M][M]) noexcept {
   Lanes largest = Lanes::Zero();
-  for (int j = 0; j < quadratic_terms; ++j) {
+  for (int j = 0; j < M; ++j) {
     Lanes sum = Lanes::Zero();
-    for (int i = 0; i < quadratic_terms; ++i) sum += (i >= j ? s[i][j] : s[j][i]).abs();
+    for (int i = 0; i < M; ++i) sum += (i >= j ? s[i][j] : s[j][i]).abs();
     largest = largest.max(sum);
   }
   return largest;
 }
 
-void evaluate_quadratic_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
-                              const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
-                              MlsEvaluation* results) noexcept {
-  constexpr int M = quadratic_terms;
+/// basis_at<M> in the lanes: 1, x, y, z, then (quadratic) x², y², z², xy, yz, zx.
+template <int M>
+void basis_lanes(const Lanes& dx, const Lanes& dy, const Lanes& dz, Lanes (&p)[M]) noexcept {
+  p[0] = Lanes::Ones(), p[1] = dx, p[2] = dy, p[3] = dz;
+  if constexpr (M == 10) {
+    p[4] = dx * dx, p[5] = dy * dy, p[6] = dz * dz, p[7] = dx * dy, p[8] = dy * dz, p[9] = dz * dx;
+  }
+}
+
+template <int M>
+void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
+                    const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
+                    MlsEvaluation* results) noexcept {
   const bool want_gradients = derivatives != Derivatives::values;
   const std::size_t node_count = std::min(positions.size(), radii.size());
   bool vector_path[lane_count] = {};
@@ -469,8 +478,8 @@ void evaluate_quadratic_lanes(const Eigen::Vector3d* x, int count, const std::ve
     const auto keep = near && s < 1.0 && w > 0.0;
     if (!keep.any()) continue;
     const Lanes kept_w = keep.select(w, Lanes::Zero());
-    // basis_at<10>: 1, x, y, z, x², y², z², xy, yz, zx.
-    const Lanes p[M] = {Lanes::Ones(), dx, dy, dz, dx * dx, dy * dy, dz * dz, dx * dy, dy * dz, dz * dx};
+    Lanes p[M];
+    basis_lanes<M>(dx, dy, dz, p);
     for (int b = 0; b < M; ++b) {
       const Lanes wp = kept_w * p[b];
       for (int i = b; i < M; ++i) moments[i][b] += wp * p[i];
@@ -496,8 +505,8 @@ void evaluate_quadratic_lanes(const Eigen::Vector3d* x, int count, const std::ve
   for (int i = 0; i < M; ++i)
     for (int j = 0; j <= i; ++j) scaled[i][j] = frame[i] * moments[i][j] * frame[j];
   bool positive_definite[lane_count] = {true, true, true, true};
-  invert_spd_lanes(scaled, inverse, positive_definite);
-  const Lanes rcond = 1.0 / (norm_1_lanes(scaled) * norm_1_lanes(inverse));
+  invert_spd_lanes<M>(scaled, inverse, positive_definite);
+  const Lanes rcond = 1.0 / (norm_1_lanes<M>(scaled) * norm_1_lanes<M>(inverse));
   for (int k = 0; k < count; ++k) {
     MlsEvaluation& out = results[k];
     bool finished = vector_path[k] && inputs_finite && found[k] >= static_cast<std::size_t>(M) && positive_definite[k];
@@ -559,12 +568,14 @@ void evaluate_mls_batch(const Eigen::Vector3d* x, int count, const std::vector<E
                         const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
                         MlsEvaluation* results) noexcept {
   if (count <= 0) return;
-  if (count > lane_count || settings.basis != Basis::quadratic || settings.weight != Weight::quartic_spline ||
-      derivatives == Derivatives::hessians) {
+  if (count > lane_count || settings.weight != Weight::quartic_spline || derivatives == Derivatives::hessians) {
     for (int k = 0; k < count; ++k) evaluate_mls(x[k], positions, radii, {}, settings, derivatives, results[k]);
     return;
   }
-  evaluate_quadratic_lanes(x, count, positions, radii, settings, derivatives, results);
+  if (settings.basis == Basis::linear)
+    evaluate_lanes<4>(x, count, positions, radii, settings, derivatives, results);
+  else
+    evaluate_lanes<10>(x, count, positions, radii, settings, derivatives, results);
 }
 
 Eigen::Vector3d weight_and_derivatives(Weight weight, double s) noexcept {

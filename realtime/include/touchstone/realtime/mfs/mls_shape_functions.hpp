@@ -75,10 +75,10 @@ void evaluate_mls(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& 
 
 /// evaluate_mls at `count` points (at most 4) with every node a candidate, results[k] for x[k]:
 /// the same neighbours, statuses and support growth, and the same values and gradients to
-/// rounding. With the quadratic basis and the quartic spline (the defaults) and without
-/// Hessians the points share one pass over the nodes, their moment sums and 10 × 10 inverses
-/// computed side by side in the lanes of a vector; a point that needs its supports grown or
-/// fails is evaluated on its own. Other settings evaluate the points one by one.
+/// rounding. With the quartic spline (the default) and without Hessians the points share one
+/// pass over the nodes, their moment sums and M × M inverses (either basis) computed side by
+/// side in the lanes of a vector; a point that needs its supports grown or fails is evaluated
+/// on its own. Other settings evaluate the points one by one.
 void evaluate_mls_batch(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
                         const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
                         MlsEvaluation* results) noexcept;
