@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -38,7 +39,10 @@ void print_defaults_filled(const std::string& config_path, const std::vector<std
 /// An input file on the command line: it exists and is a regular file (a pipe or a device
 /// would block the read or never end it; a folder cannot be read), checked before any work.
 extern const CLI::Validator readable_file;
-/// An output folder on the command line: absent (it is made) or a folder, not a file.
+/// Why `folder` could not be made (a file where one of the folders above it would be), or "".
+std::string folder_cannot_be_made_reason(const std::filesystem::path& folder);
+/// An output folder on the command line: absent (it is made, so nothing above it is a file) or a
+/// folder, not a file; checked before any work, since a run writes most of its files at its end.
 extern const CLI::Validator output_folder;
 /// An output file on the command line that is written when the work ends (a recording, a
 /// geometry script): absent or a regular file, in a folder that exists, so that a run is not

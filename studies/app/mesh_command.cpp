@@ -1,6 +1,7 @@
 // `touchstone mesh`: the gmsh meshes of a study file's geometry, one per refinement level.
 #include "commands.hpp"
 
+#include "touchstone/geometry/regular_file.hpp"
 #include "touchstone/meshes/benchmark_geometry.hpp"
 #include "touchstone/studies/fem_reference/config_reader.hpp"
 #include "touchstone/studies/fem_reference/reference_study.hpp"
@@ -53,7 +54,25 @@ void add_mesh_command(CLI::App& program, std::vector<Command>& commands) {
   mesh->add_option("config", o->config, "Study file (TOML) with [geometry] and [mesh]")->required()->check(readable_file);
   mesh->add_option("--refinement", o->refinement, "Only this refinement level (each level halves every size)")
       ->check(CLI::Range(0, 6));
-  mesh->add_option("--out", o->output, "Output folder, or a .msh path when one level is asked for")->capture_default_str();
+  // Checked before the meshing: a .msh path's folder, or the folder itself, must be makeable.
+  const CLI::Validator mesh_output(
+      [](std::string& path) -> std::string {
+        const std::filesystem::path out(path);
+        if (out.extension() != ".msh") return output_folder(path);
+        if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
+          return "'" + path + "' cannot be written (" + reason + ")";
+        std::error_code error;
+        const std::filesystem::path folder = out.parent_path();
+        if (!folder.empty() && std::filesystem::exists(folder, error) && !std::filesystem::is_directory(folder, error))
+          return "'" + path + "' cannot be written ('" + folder.string() + "' is not a folder)";
+        if (const std::string reason = folder_cannot_be_made_reason(folder); !reason.empty())
+          return "'" + path + "' cannot be written (" + reason + ")";
+        return "";
+      },
+      "FOLDER|FILE.msh");
+  mesh->add_option("--out", o->output, "Output folder, or a .msh path when one level is asked for")
+      ->capture_default_str()
+      ->check(mesh_output);
   mesh->add_option("--geo", o->geo_output, "Also write the geometry as a gmsh script (.geo_unrolled)")->check(output_file);
   commands.push_back({mesh, [o] { return run_mesh(*o); }});
 }

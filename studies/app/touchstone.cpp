@@ -23,11 +23,25 @@ const CLI::Validator touchstone::app::readable_file(
     },
     "FILE");
 
+std::string touchstone::app::folder_cannot_be_made_reason(const std::filesystem::path& folder) {
+  std::error_code error;
+  for (std::filesystem::path above = folder.parent_path(); !above.empty(); above = above.parent_path()) {
+    if (std::filesystem::exists(above, error)) {
+      if (!std::filesystem::is_directory(above, error)) return "'" + above.string() + "' is not a folder";
+      return "";
+    }
+    if (above == above.parent_path()) break;
+  }
+  return "";
+}
+
 const CLI::Validator touchstone::app::output_folder(
     [](std::string& path) -> std::string {
       std::error_code error;
       if (std::filesystem::exists(path, error) && !std::filesystem::is_directory(path, error))
         return "'" + path + "' exists and is not a folder (the output folder holds several files)";
+      if (const std::string reason = folder_cannot_be_made_reason(path); !reason.empty())
+        return "'" + path + "' cannot be made (" + reason + ")";
       return "";
     },
     "FOLDER");

@@ -68,6 +68,20 @@ for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.
                         ("atlas", "atlas_hemisphere.toml"), ("collision", "collision_table1.toml"), ("sim", "scenes/palpation.toml")]:
     check(f"{command} --out a file", [command, str(configs / config), "--out", str(a_file)], BAD_INPUT,
           f"'{a_file}' exists and is not a folder", timeout=60)
+# Under a file, no output folder can be made: refused before the work (the FEM solved and then
+# failed to write its results here).
+under_a_file = a_file / "out"
+for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.toml"), ("study", "ci_accuracy.toml"),
+                        ("atlas", "atlas_hemisphere.toml"), ("collision", "collision_table1.toml"), ("sim", "scenes/palpation.toml"),
+                        ("mesh", "b2_paper_size.toml")]:
+    check(f"{command} --out under a file", [command, str(configs / config), "--out", str(under_a_file)], BAD_INPUT,
+          f"'{under_a_file}' cannot be made ('{a_file}' is not a folder)", timeout=60)
+for name, path, text in [("under a file", a_file / "m.msh", f"'{a_file}' is not a folder"),
+                         ("a folder", scratch / "msh_folder.msh", "it is a folder")]:
+    if name == "a folder":
+        path.mkdir()
+    check(f"mesh --out a .msh {name}", ["mesh", str(configs / "b2_paper_size.toml"), "--refinement", "0", "--out", str(path)],
+          BAD_INPUT, f"'{path}' cannot be written ({text}", timeout=60)
 check("sim --replay a pipe", ["sim", scene, "--virtual", "--replay", str(fifo), "--out", str(scratch / "replay_pipe")], BAD_INPUT,
       "cannot be read (it is a device, pipe or socket, not a regular file)", absent=[scratch / "replay_pipe"], timeout=60)
 # A file written when the work ends (a recording after the whole session, a geometry script after

@@ -1,8 +1,8 @@
 """A `touchstone study` killed (SIGKILL) during an FEM solve and again during the MFS cases,
 then run again, gives the numbers of an uninterrupted run, and leaves no cache entry or output
-file that does not read back. A full disk (a file-size limit) and an output folder that cannot
-be created end in exit status 1 with an error naming the path, and what was done before stays
-usable: the run after them gives the same numbers.
+file that does not read back. A full disk (a file-size limit) ends in exit status 1 with an error naming the file, and
+what was done before stays usable: the run after it gives the same numbers. An output folder
+that cannot be made is refused before any work (exit status 2, the path named, nothing written).
 
 Usage: check_kill_resume.py <touchstone binary> <study.toml> <scratch dir>"""
 import json
@@ -134,8 +134,9 @@ blocked.mkdir()
 result = subprocess.run([binary, "study", str(study), "--out", "file/out", "--no-report"], cwd=blocked,
                         capture_output=True, text=True, timeout=600)
 print(f"unwritable output: exit {result.returncode}: {result.stderr.strip()[-300:]}")
-check(result.returncode == 1, f"an unwritable output folder gave exit status {result.returncode}, not 1")
+check(result.returncode == 2, f"an output folder that cannot be made gave exit status {result.returncode}, not 2")
 check("file/out" in result.stderr, f"the error does not name the output folder: {result.stderr.strip()[-300:]}")
+check(not (blocked / ".cache").exists(), "work was started (an FEM cache written) for an output folder that cannot be made")
 
 if not failures:
     shutil.rmtree(scratch, ignore_errors=True)
