@@ -61,11 +61,7 @@ void add_mesh_command(CLI::App& program, std::vector<Command>& commands) {
         if (out.extension() != ".msh") return output_folder(path);
         if (const std::string reason = geometry::non_regular_file_reason(path); !reason.empty())
           return "'" + path + "' cannot be written (" + reason + ")";
-        std::error_code error;
-        const std::filesystem::path folder = out.parent_path();
-        if (!folder.empty() && std::filesystem::exists(folder, error) && !std::filesystem::is_directory(folder, error))
-          return "'" + path + "' cannot be written ('" + folder.string() + "' is not a folder)";
-        if (const std::string reason = folder_cannot_be_made_reason(folder); !reason.empty())
+        if (const std::string reason = folder_cannot_be_made_reason(out); !reason.empty())
           return "'" + path + "' cannot be written (" + reason + ")";
         return "";
       },

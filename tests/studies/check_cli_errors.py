@@ -76,10 +76,10 @@ for command, config in [("fem", "b2_paper_size.toml"), ("mfs", "mfs_b3_enriched.
                         ("mesh", "b2_paper_size.toml")]:
     check(f"{command} --out under a file", [command, str(configs / config), "--out", str(under_a_file)], BAD_INPUT,
           f"'{under_a_file}' cannot be made ('{a_file}' is not a folder)", timeout=60)
+msh_folder = scratch / "msh_folder.msh"
+msh_folder.mkdir()
 for name, path, text in [("under a file", a_file / "m.msh", f"'{a_file}' is not a folder"),
-                         ("a folder", scratch / "msh_folder.msh", "it is a folder")]:
-    if name == "a folder":
-        path.mkdir()
+                         ("a folder", msh_folder, "it is a folder")]:
     check(f"mesh --out a .msh {name}", ["mesh", str(configs / "b2_paper_size.toml"), "--refinement", "0", "--out", str(path)],
           BAD_INPUT, f"'{path}' cannot be written ({text}", timeout=60)
 check("sim --replay a pipe", ["sim", scene, "--virtual", "--replay", str(fifo), "--out", str(scratch / "replay_pipe")], BAD_INPUT,

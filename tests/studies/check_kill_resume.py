@@ -1,8 +1,9 @@
 """A `touchstone study` killed (SIGKILL) during an FEM solve and again during the MFS cases,
 then run again, gives the numbers of an uninterrupted run, and leaves no cache entry or output
-file that does not read back. A full disk (a file-size limit) ends in exit status 1 with an error naming the file, and
-what was done before stays usable: the run after it gives the same numbers. An output folder
-that cannot be made is refused before any work (exit status 2, the path named, nothing written).
+file that does not read back. A full disk (a file-size limit) ends in exit status 1 with an
+error naming the file, and what was done before stays usable: the run after it gives the same
+numbers. An output folder that cannot be made is refused before any work (exit status 2, the
+path named, nothing written).
 
 Usage: check_kill_resume.py <touchstone binary> <study.toml> <scratch dir>"""
 import json
