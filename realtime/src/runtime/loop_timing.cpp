@@ -3,13 +3,19 @@
 #include <malloc.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/mman.h>
 #include <sys/prctl.h>
+#include <unistd.h>
 #include <time.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <thread>
 
 namespace touchstone::realtime::runtime {
@@ -51,6 +57,59 @@ bool keep_freed_memory_for_reuse() noexcept {
          mallopt(M_TRIM_THRESHOLD, static_cast<int>(heap_trim_bytes)) == 1;
 #else
   return false;
+#endif
+}
+
+std::string transparent_huge_page_mode() {
+  std::ifstream file("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string line;
+  if (!file || !std::getline(file, line)) return "unavailable";
+  // The selected mode is the bracketed word: "always [madvise] never".
+  const std::size_t open = line.find('['), close = line.find(']');
+  if (open == std::string::npos || close == std::string::npos || close < open) return "unavailable";
+  return line.substr(open + 1, close - open - 1);
+}
+
+namespace {
+std::atomic<std::size_t> heap_bytes_advised{0};
+}  // namespace
+
+std::size_t heap_bytes_on_huge_pages() noexcept { return heap_bytes_advised.load(); }
+
+std::size_t advise_huge_pages_for_heap() noexcept {
+#ifdef __GLIBC__
+  // A block larger than the free space at the heap's top (so the heap must grow, by the block
+  // plus the pad); it must stay below keep_freed_memory_for_reuse()'s memory-map limit.
+  const std::size_t probe_bytes = mallinfo2().keepcost + (std::size_t{1} << 20);
+  if (probe_bytes >= heap_block_limit_bytes) return 0;
+  constexpr std::size_t default_top_pad_bytes = std::size_t{128} << 10;  // glibc's M_TOP_PAD default
+  const long page_bytes = sysconf(_SC_PAGESIZE);
+  if (page_bytes <= 0) return 0;
+  auto* const before = static_cast<char*>(sbrk(0));
+  if (before == reinterpret_cast<char*>(-1)) return 0;
+  if (mallopt(M_TOP_PAD, static_cast<int>(heap_huge_page_reserve_bytes)) != 1) return 0;
+  void* const probe = std::malloc(probe_bytes);
+  if (probe != nullptr) static_cast<volatile char*>(probe)[0] = 0;  // used, so that it is not elided
+  std::free(probe);
+  auto* const after = static_cast<char*>(sbrk(0));
+  // The heap did not grow by the reserve (a data-size limit, a memory-mapped probe): the pad
+  // goes back to the default, or every later growth would try for the reserve again. (Freeing
+  // the probe trims the top to the pad less the allocator's bookkeeping: a little under it.)
+  if (after == reinterpret_cast<char*>(-1) || after <= before ||
+      static_cast<std::size_t>(after - before) < heap_huge_page_reserve_bytes / 2) {
+    mallopt(M_TOP_PAD, static_cast<int>(default_top_pad_bytes));
+    return 0;
+  }
+  // The free space at the heap's top, where the next blocks come from, begins below the old end
+  // when the heap had free space there before: advise from its first page.
+  const auto page_mask = ~(static_cast<std::uintptr_t>(page_bytes) - 1);
+  auto* const start = reinterpret_cast<char*>(reinterpret_cast<std::uintptr_t>(after - mallinfo2().keepcost) & page_mask);
+  const auto advised = static_cast<std::size_t>(after - start);
+  if (madvise(start, advised, MADV_HUGEPAGE) != 0) return 0;  // a kernel without transparent huge pages
+  heap_bytes_advised.store(advised);
+  return advised;
+#else
+  return 0;
 #endif
 }
 

@@ -6,7 +6,11 @@
 #include <gtest/gtest.h>
 #include <malloc.h>
 
+#include <cstdint>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <thread>
 
 namespace touchstone::realtime::runtime {
@@ -32,6 +36,60 @@ TEST(KeepFreedMemoryForReuse, BuildSizedBlocksComeFromTheHeap) {
   static_cast<volatile char*>(large)[0] = 1;
   EXPECT_EQ(mapped_blocks(), before + 1);
   std::free(large);
+}
+
+// The kernel's flags of the mapping that holds `address` (the VmFlags line of /proc/self/smaps):
+// "hg" marks a range advised for transparent huge pages.
+std::string mapping_flags(const void* address) {
+  std::ifstream smaps("/proc/self/smaps");
+  const auto at = reinterpret_cast<std::uintptr_t>(address);
+  std::string line;
+  bool inside = false;
+  while (std::getline(smaps, line)) {
+    unsigned long first = 0, last = 0;
+    char dash = 0;
+    std::istringstream range(line);
+    if (range >> std::hex >> first >> dash >> last && dash == '-') {
+      inside = first <= at && at < last;
+      continue;
+    }
+    if (inside && line.rfind("VmFlags:", 0) == 0) return line;
+  }
+  return "";
+}
+
+// After the call the heap holds a huge-page-advised reserve: a block allocated afterwards lies in
+// a mapping the kernel marks "hg" (without the call, nothing in this test process advises the
+// heap, so the flag would be absent: the test can fail). Run in one process after the test
+// above, it finds a 48 MB block free at the heap's top: the call must grow the heap past that.
+TEST(AdviseHugePagesForHeap, BlocksAllocatedAfterwardsLieInAnAdvisedRange) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the sanitizers' allocators do not take blocks from the C library's heap";
+#endif
+  const std::string mode = transparent_huge_page_mode();
+  if (mode == "unavailable") GTEST_SKIP() << "this kernel has no transparent huge pages";
+  ASSERT_TRUE(mode == "always" || mode == "madvise" || mode == "never") << mode;
+  ASSERT_TRUE(keep_freed_memory_for_reuse());
+  const std::size_t advised = advise_huge_pages_for_heap();
+  ASSERT_GE(advised, heap_huge_page_reserve_bytes / 2);
+  EXPECT_EQ(heap_bytes_on_huge_pages(), advised);
+  void* block = std::malloc(std::size_t{8} << 20);
+  ASSERT_NE(block, nullptr);
+  static_cast<volatile char*>(block)[0] = 1;
+  const std::string flags = mapping_flags(block);
+  EXPECT_NE(flags.find(" hg"), std::string::npos) << "the block's mapping: " << flags;
+  std::free(block);
+}
+
+TEST(TransparentHugePageMode, IsTheBracketedWordOfTheKernelsSetting) {
+  std::ifstream file("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string line;
+  if (!file || !std::getline(file, line)) {
+    EXPECT_EQ(transparent_huge_page_mode(), "unavailable");
+    return;
+  }
+  const std::string mode = transparent_huge_page_mode();
+  EXPECT_NE(line.find("[" + mode + "]"), std::string::npos) << line;
 }
 
 TEST(LatenessHistogram, QuantilesAreUpperBinEdges) {

@@ -80,6 +80,31 @@ constexpr std::size_t heap_trim_bytes = std::size_t{256} << 20;
 /// False where the C library offers no such control.
 bool keep_freed_memory_for_reuse() noexcept;
 
+/// The heap reserve that advise_huge_pages_for_heap() grows the heap by and backs with
+/// transparent huge pages (virtual address space: a page costs memory only once touched).
+constexpr std::size_t heap_huge_page_reserve_bytes = std::size_t{1} << 30;
+
+/// Grows the heap once by heap_huge_page_reserve_bytes and advises that range for transparent
+/// huge pages (madvise MADV_HUGEPAGE), and keeps it: the heap then grows, and is trimmed, in
+/// steps of the reserve. Where each first touch of a 4 KiB page is a trap to the kernel (on a
+/// virtual machine, to the hypervisor too), a run that touches its memory once — mesh
+/// generation, a sparse factorisation — spends much of its time in page faults; a 2 MiB page
+/// takes one fault for 512 of them (README, "The heap on transparent huge pages"). Call after
+/// keep_freed_memory_for_reuse() (the probe that grows the heap must come from the heap, not a
+/// memory map) and before any thread starts. Returns the bytes advised; 0 where the C library,
+/// the kernel (built without transparent huge pages) or the address space (a data-size limit)
+/// does not allow it, in which case the heap is left as the C library manages it by default.
+/// Under the kernel mode "never" the advice is accepted and changes nothing
+/// (transparent_huge_page_mode() tells).
+std::size_t advise_huge_pages_for_heap() noexcept;
+
+/// What advise_huge_pages_for_heap() advised in this process (bytes; 0 before it or where it could not).
+std::size_t heap_bytes_on_huge_pages() noexcept;
+
+/// "always", "madvise" or "never": the kernel's transparent huge page mode, from
+/// /sys/kernel/mm/transparent_hugepage/enabled; "unavailable" where that file is missing.
+std::string transparent_huge_page_mode();
+
 /// Periodic deadlines on the monotonic clock. wait() sleeps until `spin_tail` before the next
 /// deadline, then spins to it; if the caller overran one or more deadlines it does not burst to
 /// catch up: it skips them (counted) and aims for the next one in the future.
