@@ -97,15 +97,13 @@ int main(int argc, char** argv) {
   // The allocator settings of the program that runs the FEM (touchstone), so that the solves are
   // measured as it runs them: freed memory kept for reuse and the heap on transparent huge pages.
   realtime::runtime::keep_freed_memory_for_reuse();
-  const std::size_t heap_on_huge_pages_bytes = realtime::runtime::advise_huge_pages_for_heap();
+  realtime::runtime::advise_huge_pages_for_heap();
   fem::MpiSession mpi(argc, argv);
   register_cases();
   // The direct solver's time depends on them (MpiSession has restarted the program if needed).
   const std::string blas = fem::loaded_openblas_core();
   benchmark::AddCustomContext("blas", blas.empty() ? "not OpenBLAS" : "OpenBLAS, " + blas + " kernels");
-  benchmark::AddCustomContext("heap_huge_pages", heap_on_huge_pages_bytes == 0
-                                                     ? "no (kernel mode: " + realtime::runtime::transparent_huge_page_mode() + ")"
-                                                     : std::to_string(heap_on_huge_pages_bytes >> 20) + " MiB advised");
+  benchmark::AddCustomContext("heap_huge_pages", realtime::runtime::heap_huge_pages_description());
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   if (fem::MpiSession::rank() == 0) {

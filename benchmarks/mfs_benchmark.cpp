@@ -58,7 +58,7 @@ using touchstone::realtime::mfs::ToolContact;
 // (touchstone): freed memory kept for reuse, so a build does not fault in the pages of the last,
 // and the heap on transparent huge pages.
 [[maybe_unused]] const bool memory_kept_for_reuse = touchstone::realtime::runtime::keep_freed_memory_for_reuse();
-[[maybe_unused]] const std::size_t heap_bytes_on_huge_pages = touchstone::realtime::runtime::advise_huge_pages_for_heap();
+[[maybe_unused]] const std::size_t heap_bytes_advised = touchstone::realtime::runtime::advise_huge_pages_for_heap();
 
 constexpr double organ_radius_m = 0.05;
 constexpr int icosphere_level = 5;  // 20 · 4⁵ = 20 480 triangles

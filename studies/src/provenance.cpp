@@ -77,15 +77,6 @@ std::string sha256_hex(const std::string& text) {
   return result;
 }
 
-namespace {
-/// "1024 MiB advised (kernel mode: madvise)", or "no (kernel mode: never)".
-std::string heap_huge_pages_text() {
-  const std::size_t bytes = realtime::runtime::heap_bytes_on_huge_pages();
-  const std::string mode = realtime::runtime::transparent_huge_page_mode();
-  if (bytes == 0) return "no (kernel mode: " + mode + ")";
-  return std::to_string(bytes >> 20) + " MiB advised (kernel mode: " + mode + ")";
-}
-}  // namespace
 
 nlohmann::json provenance(const std::string& config_text) {
   const unsigned cores = std::thread::hardware_concurrency();
@@ -100,7 +91,7 @@ nlohmann::json provenance(const std::string& config_text) {
       // The direct solver's speed depends on it: OpenBLAS's kernel set for this CPU.
       {"blas", blas_kernels.empty() ? std::string("not OpenBLAS") : "OpenBLAS, " + blas_kernels + " kernels"},
       // So do mesh generation and the factorisation: whether the heap is on transparent huge pages.
-      {"heap_huge_pages", heap_huge_pages_text()},
+      {"heap_huge_pages", realtime::runtime::heap_huge_pages_description()},
       {"config_sha256", sha256_hex(config_text)},
       {"time_utc", utc_now_iso8601()},
       {"touchstone_version", touchstone::version::project_version},

@@ -70,6 +70,13 @@ std::string transparent_huge_page_mode() {
   return line.substr(open + 1, close - open - 1);
 }
 
+std::string heap_huge_pages_description() {
+  const std::size_t bytes = heap_bytes_on_huge_pages();
+  const std::string mode = transparent_huge_page_mode();
+  if (bytes == 0) return "no (kernel mode: " + mode + ")";
+  return std::to_string(bytes >> 20) + " MiB advised (kernel mode: " + mode + ")";
+}
+
 namespace {
 std::atomic<std::size_t> heap_bytes_advised{0};
 }  // namespace

@@ -73,6 +73,7 @@ TEST(AdviseHugePagesForHeap, BlocksAllocatedAfterwardsLieInAnAdvisedRange) {
   const std::size_t advised = advise_huge_pages_for_heap();
   ASSERT_GE(advised, heap_huge_page_reserve_bytes / 2);
   EXPECT_EQ(heap_bytes_on_huge_pages(), advised);
+  EXPECT_EQ(heap_huge_pages_description(), std::to_string(advised >> 20) + " MiB advised (kernel mode: " + mode + ")");
   void* block = std::malloc(std::size_t{8} << 20);
   ASSERT_NE(block, nullptr);
   static_cast<volatile char*>(block)[0] = 1;

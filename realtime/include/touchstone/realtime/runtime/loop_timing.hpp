@@ -105,6 +105,9 @@ std::size_t heap_bytes_on_huge_pages() noexcept;
 /// /sys/kernel/mm/transparent_hugepage/enabled; "unavailable" where that file is missing.
 std::string transparent_huge_page_mode();
 
+/// For a run's provenance: "1024 MiB advised (kernel mode: madvise)", or "no (kernel mode: never)".
+std::string heap_huge_pages_description();
+
 /// Periodic deadlines on the monotonic clock. wait() sleeps until `spin_tail` before the next
 /// deadline, then spins to it; if the caller overran one or more deadlines it does not burst to
 /// catch up: it skips them (counted) and aims for the next one in the future.
