@@ -2,8 +2,8 @@
 // quadratic basis with ~30 and ~60 neighbours and the linear basis with ~15; and with ~30
 // neighbours the values and gradients of a Galerkin volume point and the values of a boundary
 // point. Candidates are the nodes within 1.3 r of the point, as a coarse neighbour search would
-// give. Then four points at a time with every node a candidate (the enriched model's rules),
-// side by side in the lanes of evaluate_mls_batch against one evaluate_mls each, for both bases.
+// give. Then a batch of points with every node a candidate (the enriched model's rules), side by
+// side in the lanes of evaluate_mls_batch against one evaluate_mls each, for both bases.
 
 #include "touchstone/realtime/mfs/mls_shape_functions.hpp"
 
@@ -90,41 +90,44 @@ void BM_mls_linear_15(benchmark::State& state) { evaluate(state, Basis::linear, 
 void BM_mls_quadratic_30_gradients(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0, Derivatives::gradients); }
 void BM_mls_quadratic_30_values(benchmark::State& state) { evaluate(state, Basis::quadratic, 30.0, Derivatives::values); }
 
-/// Values and gradients at four points, every node a candidate: state.range(0) = 1 runs the
-/// four side by side (evaluate_mls_batch), 0 one by one; the time is per point.
-void four_points(benchmark::State& state, Basis basis, double neighbours) {
+/// Values and gradients at a batch of mls_batch_size points (eight with AVX-512, else four),
+/// every node a candidate: state.range(0) = 1 runs the batch side by side (evaluate_mls_batch),
+/// 0 one by one; the time is per point.
+void batch_of_points(benchmark::State& state, Basis basis, double neighbours) {
+  constexpr int batch = touchstone::realtime::mfs::mls_batch_size;
   const Scene scene = make_scene(neighbours);
   const MlsSettings settings{basis};
   const bool side_by_side = state.range(0) == 1;
-  MlsEvaluation results[4];
+  MlsEvaluation results[batch];
   std::size_t first = 0;
   for (auto _ : state) {
     const Eigen::Vector3d* x = scene.points.data() + first;
     if (side_by_side) {
-      evaluate_mls_batch(x, 4, scene.positions, scene.radii, settings, Derivatives::gradients, results);
+      evaluate_mls_batch(x, batch, scene.positions, scene.radii, settings, Derivatives::gradients, results);
     } else {
-      for (int k = 0; k < 4; ++k) evaluate_mls(x[k], scene.positions, scene.radii, {}, settings, Derivatives::gradients, results[k]);
+      for (int k = 0; k < batch; ++k) evaluate_mls(x[k], scene.positions, scene.radii, {}, settings, Derivatives::gradients, results[k]);
     }
     for (const MlsEvaluation& r : results) {
       benchmark::DoNotOptimize(r.gradient.data());
       if (r.status != MlsStatus::ok) state.SkipWithError("MLS evaluation failed");
     }
-    first = (first + 4) % scene.points.size();
+    first = (first + batch) % scene.points.size();
   }
-  state.SetItemsProcessed(4 * state.iterations());
-  state.counters["time_per_point"] = benchmark::Counter(4.0 * static_cast<double>(state.iterations()),
+  state.SetItemsProcessed(batch * state.iterations());
+  state.counters["points_per_batch"] = batch;
+  state.counters["time_per_point"] = benchmark::Counter(batch * static_cast<double>(state.iterations()),
                                                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-void BM_mls_four_points_quadratic_30(benchmark::State& state) { four_points(state, Basis::quadratic, 30.0); }
-void BM_mls_four_points_linear_30(benchmark::State& state) { four_points(state, Basis::linear, 30.0); }
+void BM_mls_batch_quadratic_30(benchmark::State& state) { batch_of_points(state, Basis::quadratic, 30.0); }
+void BM_mls_batch_linear_30(benchmark::State& state) { batch_of_points(state, Basis::linear, 30.0); }
 
 BENCHMARK(BM_mls_quadratic_30);
 BENCHMARK(BM_mls_quadratic_60);
 BENCHMARK(BM_mls_linear_15);
 BENCHMARK(BM_mls_quadratic_30_gradients);
 BENCHMARK(BM_mls_quadratic_30_values);
-BENCHMARK(BM_mls_four_points_quadratic_30)->ArgName("side_by_side")->Arg(0)->Arg(1);
-BENCHMARK(BM_mls_four_points_linear_30)->ArgName("side_by_side")->Arg(0)->Arg(1);
+BENCHMARK(BM_mls_batch_quadratic_30)->ArgName("side_by_side")->Arg(0)->Arg(1);
+BENCHMARK(BM_mls_batch_linear_30)->ArgName("side_by_side")->Arg(0)->Arg(1);
 
 }  // namespace

@@ -40,6 +40,16 @@ void constraint_residuals(std::size_t node_count, const ShapeSamples& volume, co
 
 }  // namespace
 
+void ShapeSamples::reserve(std::size_t point_count, std::size_t entry_count, bool with_gradients) {
+  points.reserve(point_count);
+  normals.reserve(point_count);
+  weights.reserve(point_count);
+  offset.reserve(point_count + 1);
+  node.reserve(entry_count);
+  value.reserve(entry_count);
+  if (with_gradients) gradient.reserve(entry_count);
+}
+
 void ShapeSamples::add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const std::vector<int>& nodes,
                        const std::vector<double>& values, const std::vector<Eigen::Vector3d>* gradients) {
   points.push_back(x);
@@ -129,23 +139,54 @@ double correct_gradients(const std::vector<Eigen::Vector3d>& nodes, const ShapeS
         (q > batch_first && static_cast<double>(union_nodes.size() + static_cast<std::size_t>(fresh)) > max_union_growth * std::max(batch_widest, k)))
       flush(q);
     batch_widest = std::max(batch_widest, k);
-    // The 4 × 4 moments as whole outer products: a fixed-size product vectorises, a rank update
-    // of a self-adjoint view of this size does not.
-    Eigen::Matrix4d moments = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d e;
+    // The 4 × 4 moments Σ e eᵀ, e = (1, d), as running sums of d and of d dᵀ's six entries in
+    // registers: a vector e assembled on the stack and read back whole stalled every node
+    // (its narrow stores cannot be forwarded to the wide load). Each entry is the same sum, in
+    // the same order, as the outer products would give.
+    Eigen::Vector3d first_moments = Eigen::Vector3d::Zero();
+    double xx = 0, yy = 0, zz = 0, xy = 0, yz = 0, zx = 0;
     for (int a = 0; a < k; ++a) {
-      e << 1, scale * (nodes[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] - volume.points[q]);
-      moments.noalias() += e * e.transpose();
+      const Eigen::Vector3d d =
+          scale * (nodes[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] - volume.points[q]);
+      first_moments += d;
+      xx += d.x() * d.x(), yy += d.y() * d.y(), zz += d.z() * d.z();
+      xy += d.x() * d.y(), yz += d.y() * d.z(), zx += d.z() * d.x();
     }
+    Eigen::Matrix4d moments;
+    moments << k, first_moments.x(), first_moments.y(), first_moments.z(),  //
+        first_moments.x(), xx, xy, zx,                                      //
+        first_moments.y(), xy, yy, yz,                                      //
+        first_moments.z(), zx, yz, zz;
     const Eigen::LLT<Eigen::Matrix4d> cholesky(moments);
     if (cholesky.info() != Eigen::Success)
       throw std::invalid_argument("consistent gradients: the nodes seen at volume point " + std::to_string(q) +
                                   " do not span the affine fields");
+    // Row a of Q = E L⁻ᵀ is (L⁻¹ e_a)ᵀ. The forward substitution of Eigen's unrolled 4 × 4
+    // solve, written out with its operations in its order (the same bits), four nodes to a
+    // vector: one node's chain of dependent divisions set the pace.
+    const Eigen::Matrix4d& l = cholesky.matrixLLT();
+    const double q0 = 1.0 / l(0, 0);  // e's first entry is 1 at every node
+    for (int a0 = 0; a0 < k; a0 += 4) {
+      const int count = std::min(4, k - a0);
+      // The lanes are built in registers (scalar stores read back as one vector would stall);
+      // a short last group repeats its last node.
+      const auto offset_of = [&](int t) {
+        const int a = a0 + std::min(t, count - 1);
+        return Eigen::Vector3d(scale * (nodes[static_cast<std::size_t>(volume.node[static_cast<std::size_t>(first + a)])] - volume.points[q]));
+      };
+      const Eigen::Vector3d d0 = offset_of(0), d1 = offset_of(1), d2 = offset_of(2), d3 = offset_of(3);
+      const Eigen::Array4d dx(d0.x(), d1.x(), d2.x(), d3.x()), dy(d0.y(), d1.y(), d2.y(), d3.y()),
+          dz(d0.z(), d1.z(), d2.z(), d3.z());
+      const Eigen::Array4d q1 = (dx - l(1, 0) * q0) / l(1, 1);
+      const Eigen::Array4d q2 = (dy - (l(2, 0) * q0 + l(2, 1) * q1)) / l(2, 2);
+      const Eigen::Array4d q3 = (dz - (l(3, 0) * q0 + (l(3, 1) * q1 + l(3, 2) * q2))) / l(3, 3);
+      for (int t = 0; t < count; ++t) {
+        double* row = &basis[4 * static_cast<std::size_t>(first + a0 + t)];
+        row[0] = q0, row[1] = q1[t], row[2] = q2[t], row[3] = q3[t];
+      }
+    }
     for (int a = 0; a < k; ++a) {
       const int J = volume.node[static_cast<std::size_t>(first + a)];
-      e << 1, scale * (nodes[static_cast<std::size_t>(J)] - volume.points[q]);
-      cholesky.matrixL().solveInPlace(e);  // row a of Q = E L⁻ᵀ is (L⁻¹ e)ᵀ
-      for (int c = 0; c < 4; ++c) basis[4 * static_cast<std::size_t>(first + a) + static_cast<std::size_t>(c)] = e[c];
       system(J, J) += volume.weights[q];
       if (slot[static_cast<std::size_t>(J)] < 0) {
         slot[static_cast<std::size_t>(J)] = static_cast<int>(union_nodes.size());

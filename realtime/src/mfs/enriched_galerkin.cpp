@@ -37,8 +37,12 @@ struct PolarDirections {
     t1 = normal.cross(helper).normalized();
     t2 = normal.cross(t1);
   }
-  Eigen::Vector3d operator()(double theta, double phi) const {
-    return -std::cos(theta) * normal + std::sin(theta) * (std::cos(phi) * t1 + std::sin(phi) * t2);
+  /// The unit vector at azimuth φ in the tangent plane, cos φ t₁ + sin φ t₂.
+  Eigen::Vector3d radial(double phi) const { return std::cos(phi) * t1 + std::sin(phi) * t2; }
+  /// The direction at θ, given radial(φ): computed once per azimuth, so that the searches over
+  /// θ do not recompute φ's sine and cosine at every step.
+  Eigen::Vector3d at(double theta, const Eigen::Vector3d& radial_direction) const {
+    return -std::cos(theta) * normal + std::sin(theta) * radial_direction;
   }
 };
 
@@ -73,10 +77,11 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
     std::vector<std::pair<double, double>> polar;  // θ and its weight
     for (int k = 0; k < azimuth_points; ++k) {
       const double phi = 2 * pi * (k + 0.5) / azimuth_points;
-      const double theta_max = first_exit([&](double theta) { return inside(centre + probe * direction(theta, phi)); }, pi, 32);
+      const Eigen::Vector3d radial = direction.radial(phi);
+      const double theta_max = first_exit([&](double theta) { return inside(centre + probe * direction.at(theta, radial)); }, pi, 32);
       if (theta_max <= 0) continue;
       const double theta_cut =
-          first_exit([&](double theta) { return inside(centre + length * direction(theta, phi)); }, pi, 32);
+          first_exit([&](double theta) { return inside(centre + length * direction.at(theta, radial)); }, pi, 32);
       polar.clear();
       // A wedge beyond θ_cut thinner than a milliradian (a flat body: both are π/2) holds no volume.
       if (theta_cut > 0 && theta_cut < theta_max - 1e-3) {
@@ -87,7 +92,7 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
         for (std::size_t j = 0; j < x_whole.size(); ++j) polar.emplace_back(theta_max * x_whole[j], theta_max * w_whole[j]);
       }
       for (const auto& [theta, theta_weight] : polar) {
-        const Eigen::Vector3d d = direction(theta, phi);
+        const Eigen::Vector3d d = direction.at(theta, radial);
         const double reach = first_exit([&](double rho) { return inside(centre + rho * d); }, length, 32);
         if (reach <= 0) continue;
         const double scale = tool_radius_m;
@@ -118,11 +123,12 @@ PatchQuadrature enriched_cut_quadrature(const LocalSurface& surface, double leng
   PatchQuadrature q;
   for (int k = 0; k < s.cut_azimuth_points; ++k) {
     const double phi = 2 * pi * (k + 0.5) / s.cut_azimuth_points;
+    const Eigen::Vector3d radial = direction.radial(phi);
     const double theta_max =
-        first_exit([&](double theta) { return surface.inside(centre + length * direction(theta, phi)); }, pi, 64);
+        first_exit([&](double theta) { return surface.inside(centre + length * direction.at(theta, radial)); }, pi, 64);
     for (int i = 0; i < s.cut_polar_points; ++i) {
       const double theta = theta_max * x[i];
-      const Eigen::Vector3d d = direction(theta, phi);
+      const Eigen::Vector3d d = direction.at(theta, radial);
       q.points.push_back(centre + length * d);
       q.normals.push_back(d);
       q.weights.push_back(length * length * std::sin(theta) * theta_max * w[i] * 2 * pi / s.cut_azimuth_points);
@@ -569,21 +575,21 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
                                        settings.support_neighbours, settings.min_point_neighbours);
   const double supports_s = seconds_since(step);
   step = clock::now();
-  // The shape functions at the points of a rule, four at a time (evaluate_mls_batch runs four
-  // nearby points side by side), handed to `use` in the order given; false at the first point
-  // where they fail, whose index and evaluation are left in failed_point and `failed`.
-  MlsEvaluation four[4];
+  // The shape functions at the points of a rule, a batch at a time (evaluate_mls_batch runs
+  // mls_batch_size nearby points side by side), handed to `use` in the order given; false at the
+  // first point where they fail, whose index and evaluation are left in failed_point and `failed`.
+  MlsEvaluation batch[mls_batch_size];
   const MlsEvaluation* failed = nullptr;
   int failed_point = -1;
-  const auto evaluate_in_fours = [&](const std::vector<Eigen::Vector3d>& points, const std::vector<int>& order,
-                                     Derivatives what, const auto& use) {
-    Eigen::Vector3d x[4];
-    for (std::size_t first = 0; first < order.size(); first += 4) {
-      const int count = static_cast<int>(std::min<std::size_t>(4, order.size() - first));
+  const auto evaluate_in_batches = [&](const std::vector<Eigen::Vector3d>& points, const std::vector<int>& order,
+                                       Derivatives what, const auto& use) {
+    Eigen::Vector3d x[mls_batch_size];
+    for (std::size_t first = 0; first < order.size(); first += mls_batch_size) {
+      const int count = static_cast<int>(std::min<std::size_t>(mls_batch_size, order.size() - first));
       for (int k = 0; k < count; ++k) x[k] = points[static_cast<std::size_t>(order[first + static_cast<std::size_t>(k)])];
-      evaluate_mls_batch(x, count, cloud.positions, cloud.radii, mls, what, four);
+      evaluate_mls_batch(x, count, cloud.positions, cloud.radii, mls, what, batch);
       for (int k = 0; k < count; ++k) {
-        const MlsEvaluation& eval = four[k];
+        const MlsEvaluation& eval = batch[k];
         ++model.mls_evaluations;
         if (eval.status != MlsStatus::ok) {
           failed = &eval;
@@ -611,7 +617,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     points.resize(set.points.size());
     std::vector<int> in_order(set.points.size());
     std::iota(in_order.begin(), in_order.end(), 0);
-    const bool sampled = evaluate_in_fours(set.points, in_order, Derivatives::values, [&](int q, const MlsEvaluation& eval) {
+    const bool sampled = evaluate_in_batches(set.points, in_order, Derivatives::values, [&](int q, const MlsEvaluation& eval) {
       BoundaryPoint& b = points[static_cast<std::size_t>(q)];
       b.nodes = eval.neighbours;
       b.values = eval.value;
@@ -636,9 +642,14 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   model.boundary_points = static_cast<int>(patch.size() + free_surface.size() + cut.size() + clamped.size());
   // The whole boundary with its MLS values: the integration constraints of the gradient correction.
   ShapeSamples boundary;
-  if (settings.gradient_correction != GradientCorrection::none)
+  if (settings.gradient_correction != GradientCorrection::none) {
+    std::size_t entries = 0;
+    for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
+      for (const BoundaryPoint& b : *set) entries += b.nodes.size();
+    boundary.reserve(static_cast<std::size_t>(model.boundary_points), entries, false);
     for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
       for (const BoundaryPoint& b : *set) boundary.add(b.x, b.normal, b.weight, b.nodes, b.values, nullptr);
+  }
   const double boundary_sampling_s = seconds_since(step);
   step = clock::now();
 
@@ -707,7 +718,12 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   };
   const bool corrected = settings.gradient_correction != GradientCorrection::none;
   ShapeSamples volume;
-  const bool volume_sampled = evaluate_in_fours(
+  // Room for what the points see (every node of a small cloud, a few dozen of a large one), so
+  // that storing them rarely copies.
+  constexpr std::size_t reserved_nodes_per_point = 64;
+  if (corrected)
+    volume.reserve(quad.volume.points.size(), quad.volume.points.size() * std::min(cloud.size(), reserved_nodes_per_point), true);
+  const bool volume_sampled = evaluate_in_batches(
       quad.volume.points, sort_points_spatially(quad.volume.points, 0.5 * mean_radius), Derivatives::gradients,
       [&](int q, const MlsEvaluation& eval) {
         const Eigen::Vector3d& x = quad.volume.points[static_cast<std::size_t>(q)];

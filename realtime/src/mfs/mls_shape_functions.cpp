@@ -30,6 +30,10 @@
 #include <cmath>
 #include <cstddef>
 
+#ifdef __AVX512F__
+#include <immintrin.h>
+#endif
+
 namespace touchstone::realtime::mfs {
 namespace {
 
@@ -110,14 +114,28 @@ void clear_outputs(MlsEvaluation& result) noexcept {
 }
 
 inline double square_root(double v) noexcept { return std::sqrt(v); }
-inline Eigen::Array4d square_root(const Eigen::Array4d& v) noexcept { return v.sqrt(); }
+/// The lanes' square root, correctly rounded as std::sqrt is: Eigen's 512-bit packet square
+/// root is an approximation (rsqrt14 and two Newton steps, under its default EIGEN_FAST_MATH),
+/// which would make the lanes round differently from the one-point evaluation.
+template <int Size>
+inline Eigen::Array<double, Size, 1> square_root(const Eigen::Array<double, Size, 1>& v) noexcept {
+#ifdef __AVX512F__
+  if constexpr (Size == 8) {
+    Eigen::Array<double, Size, 1> root;
+    _mm512_storeu_pd(root.data(), _mm512_sqrt_pd(_mm512_loadu_pd(v.data())));
+    return root;
+  }
+#endif
+  return v.sqrt();  // 256- and 128-bit packets take the exact instruction
+}
 inline void set_zero(double& v) noexcept { v = 0.0; }
-inline void set_zero(Eigen::Array4d& v) noexcept { v.setZero(); }
+template <int Size>
+inline void set_zero(Eigen::Array<double, Size, 1>& v) noexcept { v.setZero(); }
 
 /// Inverse of a symmetric positive definite M × M matrix by Cholesky: A = L Lᵀ,
 /// A⁻¹ = L⁻ᵀ L⁻¹. Hand-written for the fixed sizes 4 and 10: Eigen's general triangular solves
-/// cost more than the whole factorisation here. T is double (one matrix) or Eigen::Array4d (four
-/// matrices, one per lane, each lane doing the same operations in the same order as the one
+/// cost more than the whole factorisation here. T is double (one matrix) or an array of lanes (one
+/// matrix per lane, each lane doing the same operations in the same order as the one
 /// matrix would). `a(i, j)` gives the lower triangle (i ≥ j); `store(i, j, v)` receives A⁻¹'s
 /// entries (i ≥ j, for both triangles). `accept_pivot(pivot)` sees each pivot before its square
 /// root: false stops with false; it may replace the pivots of lanes it gives up.
@@ -383,17 +401,17 @@ MlsStatus finish_from_inverse(const Eigen::Matrix<double, M, M>& inverse, Deriva
   return MlsStatus::ok;
 }
 
-/// Four points side by side, one per lane of a vector: either basis with the quartic spline
+/// mls_batch_size points side by side, one per lane of a vector: either basis with the quartic spline
 /// weight at support scale 1, every node a candidate. The moment sums and the M × M inverses
 /// are those of evaluate_fixed<M> lane by lane (the same operations in the same order per
 /// entry; only the exact condition number's column sums may round differently). Whatever
 /// evaluate_fixed would not finish at scale 1 (too few nodes, a singular or ill-conditioned A,
 /// a non-finite input) goes back to the one-point evaluation, which then grows the supports as
 /// it always does.
-using Lanes = Eigen::Array4d;
-constexpr int lane_count = 4;
+constexpr int lane_count = mls_batch_size;
+using Lanes = Eigen::Array<double, lane_count, 1>;
 
-/// invert_spd<M> on four matrices at once (entry [i][j], i ≥ j, of the lower triangle; lane k
+/// invert_spd<M> on lane_count matrices at once (entry [i][j], i ≥ j, of the lower triangle; lane k
 /// of each entry belongs to matrix k). ok[k] is false where matrix k is not positive definite.
 template <int M>
 void invert_spd_lanes(const Lanes (&a)[M][M], Lanes (&inverse)[M][M], bool (&ok)[lane_count]) noexcept {
@@ -471,7 +489,7 @@ void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen
     const auto near = d_squared < r * r;
     if (!near.any()) continue;
     // weight_terms(quartic_spline, s), lane by lane.
-    const Lanes s = d_squared.sqrt() / r;
+    const Lanes s = square_root(d_squared) / r;
     const Lanes t = 1.0 - s;
     const Lanes w = t * t * t * (1.0 + 3.0 * s);
     const Lanes dw_over_s = -12.0 * t * t;
@@ -504,7 +522,8 @@ void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen
   Lanes scaled[M][M], inverse[M][M];
   for (int i = 0; i < M; ++i)
     for (int j = 0; j <= i; ++j) scaled[i][j] = frame[i] * moments[i][j] * frame[j];
-  bool positive_definite[lane_count] = {true, true, true, true};
+  bool positive_definite[lane_count];
+  std::fill(std::begin(positive_definite), std::end(positive_definite), true);
   invert_spd_lanes<M>(scaled, inverse, positive_definite);
   const Lanes rcond = 1.0 / (norm_1_lanes<M>(scaled) * norm_1_lanes<M>(inverse));
   for (int k = 0; k < count; ++k) {

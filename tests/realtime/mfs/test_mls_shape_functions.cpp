@@ -638,11 +638,11 @@ TEST(MlsShapeFunctionsBatch, EveryPointGetsWhatItsOwnEvaluationGives) {
   int statuses[4] = {};
   for (const MlsSettings& settings : {MlsSettings{}, growing, linear, linear_growing})
     for (const Derivatives derivatives : {Derivatives::values, Derivatives::gradients})
-      for (int count = 1; count <= 4; ++count)
+      for (int count = 1; count <= touchstone::realtime::mfs::mls_batch_size; ++count)
         for (std::size_t first = 0; first + static_cast<std::size_t>(count) <= points.size(); first += static_cast<std::size_t>(count)) {
           SCOPED_TRACE(::testing::Message() << "count " << count << ", first point " << first << ", growth bound "
                                             << settings.max_support_scale << ", basis size " << basis_size(settings.basis));
-          MlsEvaluation batch[4], one;
+          MlsEvaluation batch[touchstone::realtime::mfs::mls_batch_size], one;
           evaluate_mls_batch(points.data() + first, count, cloud.positions, cloud.radii, settings, derivatives, batch);
           for (int k = 0; k < count; ++k) {
             evaluate_mls(points[first + static_cast<std::size_t>(k)], cloud.positions, cloud.radii, {}, settings, derivatives, one);
@@ -651,7 +651,9 @@ TEST(MlsShapeFunctionsBatch, EveryPointGetsWhatItsOwnEvaluationGives) {
           }
         }
   std::cout << "largest relative difference from the one-point evaluation: " << worst << "\n";
-  // Every path was taken: the lanes, the growth, too few nodes and a non-finite point.
+  // Every path was taken: the lanes, the growth, too few nodes and a non-finite point. A full
+  // batch is the widest vector the build targets (eight lanes with AVX-512).
+  EXPECT_GE(touchstone::realtime::mfs::mls_batch_size, 4);
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::ok)], 0);
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::too_few_nodes)], 0);
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::non_finite_input)], 0);

@@ -38,6 +38,9 @@ struct ShapeSamples {
   std::vector<Eigen::Vector3d> gradient;  ///< empty for boundary samples
 
   std::size_t size() const { return weights.size(); }
+  /// Room for `point_count` points with `entry_count` node entries in all, so that adding them
+  /// neither reallocates nor copies (gradients too if `with_gradients`).
+  void reserve(std::size_t point_count, std::size_t entry_count, bool with_gradients);
   /// Appends a point with its nodes' values (and gradients, for a volume sample).
   void add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const std::vector<int>& nodes,
            const std::vector<double>& values, const std::vector<Eigen::Vector3d>* gradients);

@@ -73,7 +73,15 @@ void evaluate_mls(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& 
                   const std::vector<double>& radii, const std::vector<int>& candidates,
                   const MlsSettings& settings, Derivatives derivatives, MlsEvaluation& result) noexcept;
 
-/// evaluate_mls at `count` points (at most 4) with every node a candidate, results[k] for x[k]:
+/// The most points evaluate_mls_batch takes at once: one per lane of the widest vector of
+/// doubles the build targets (eight with AVX-512, four with AVX2 or less).
+#ifdef __AVX512F__
+inline constexpr int mls_batch_size = 8;
+#else
+inline constexpr int mls_batch_size = 4;
+#endif
+
+/// evaluate_mls at `count` points (at most mls_batch_size) with every node a candidate, results[k] for x[k]:
 /// the same neighbours, statuses and support growth, and the same values and gradients to
 /// rounding. With the quartic spline (the default) and without Hessians the points share one
 /// pass over the nodes, their moment sums and M × M inverses (either basis) computed side by
