@@ -77,7 +77,6 @@ std::string sha256_hex(const std::string& text) {
   return result;
 }
 
-
 nlohmann::json provenance(const std::string& config_text) {
   const unsigned cores = std::thread::hardware_concurrency();
   const std::string blas_kernels = fem::loaded_openblas_core();

@@ -651,9 +651,7 @@ TEST(MlsShapeFunctionsBatch, EveryPointGetsWhatItsOwnEvaluationGives) {
           }
         }
   std::cout << "largest relative difference from the one-point evaluation: " << worst << "\n";
-  // Every path was taken: the lanes, the growth, too few nodes and a non-finite point. A full
-  // batch is the widest vector the build targets (eight lanes with AVX-512).
-  EXPECT_GE(touchstone::realtime::mfs::mls_batch_size, 4);
+  // Every path was taken: the lanes, the growth, too few nodes and a non-finite point.
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::ok)], 0);
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::too_few_nodes)], 0);
   EXPECT_GT(statuses[static_cast<int>(MlsStatus::non_finite_input)], 0);
