@@ -52,12 +52,17 @@ void ShapeSamples::reserve(std::size_t point_count, std::size_t entry_count, boo
 
 void ShapeSamples::add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const std::vector<int>& nodes,
                        const std::vector<double>& values, const std::vector<Eigen::Vector3d>* gradients) {
+  add(x, normal, weight, nodes.data(), values.data(), gradients ? gradients->data() : nullptr, nodes.size());
+}
+
+void ShapeSamples::add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const int* nodes,
+                       const double* values, const Eigen::Vector3d* gradients, std::size_t count) {
   points.push_back(x);
   normals.push_back(normal);
   weights.push_back(weight);
-  node.insert(node.end(), nodes.begin(), nodes.end());
-  value.insert(value.end(), values.begin(), values.begin() + static_cast<std::ptrdiff_t>(nodes.size()));
-  if (gradients) gradient.insert(gradient.end(), gradients->begin(), gradients->begin() + static_cast<std::ptrdiff_t>(nodes.size()));
+  node.insert(node.end(), nodes, nodes + count);
+  value.insert(value.end(), values, values + count);
+  if (gradients) gradient.insert(gradient.end(), gradients, gradients + count);
   offset.push_back(static_cast<int>(node.size()));
 }
 

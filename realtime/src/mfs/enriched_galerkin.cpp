@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -67,6 +68,9 @@ PatchQuadrature enriched_volume_quadrature(const LocalSurface& surface, double t
   const double coarse_below_t = std::log1p(s.volume_coarse_within_tool_radii) / std::log1p(length / tool_radius_m);
   const double probe = 0.25 * std::min(tool_radius_m, length);
   PatchQuadrature q;
+  // At most the full angular product at every radial point (the inner shells take half of it).
+  q.reserve(static_cast<std::size_t>(s.volume_radial_points) * static_cast<std::size_t>(s.volume_polar_points) *
+            static_cast<std::size_t>(s.volume_azimuth_points));
   // One angular product rule over the shells t ∈ [t_low, t_high).
   const auto add_shells = [&](int azimuth_points, int polar_points, double t_low, double t_high) {
     const int rim_points = std::max(1, (polar_points + 2) / 4);
@@ -121,6 +125,7 @@ PatchQuadrature enriched_cut_quadrature(const LocalSurface& surface, double leng
   std::vector<double> x, w;
   gauss_legendre(s.cut_polar_points, x, w);
   PatchQuadrature q;
+  q.reserve(static_cast<std::size_t>(s.cut_polar_points) * static_cast<std::size_t>(s.cut_azimuth_points));
   for (int k = 0; k < s.cut_azimuth_points; ++k) {
     const double phi = 2 * pi * (k + 0.5) / s.cut_azimuth_points;
     const Eigen::Vector3d radial = direction.radial(phi);
@@ -148,12 +153,18 @@ struct ConstraintSurface {
 /// monomials of ξ = (x − c)/L up to `degree` per component, then σ(ψ_m)n / scale.
 void raw_multipliers(const Eigen::Vector3d& xi, int degree, const std::vector<Eigen::Vector3d>& traction_modes,
                      Eigen::Matrix<double, 3, Eigen::Dynamic>& out) {
-  std::vector<double> monomials;
+  // Each power once (the degree is at most 4, so at most 35 monomials): this runs at every
+  // point of the cut's rule, twice.
+  constexpr int max_degree = 4;
+  double power[3][max_degree + 1];
+  for (int c = 0; c < 3; ++c)
+    for (int e = 0; e <= degree; ++e) power[c][e] = std::pow(xi(c), e);
+  std::array<double, (max_degree + 1) * (max_degree + 2) * (max_degree + 3) / 6> monomials;
+  std::size_t found = 0;
   for (int i = 0; i <= degree; ++i)
     for (int j = 0; i + j <= degree; ++j)
-      for (int k = 0; i + j + k <= degree; ++k)
-        monomials.push_back(std::pow(xi.x(), i) * std::pow(xi.y(), j) * std::pow(xi.z(), k));
-  const Eigen::Index count = static_cast<Eigen::Index>(monomials.size());
+      for (int k = 0; i + j + k <= degree; ++k) monomials[found++] = power[0][i] * power[1][j] * power[2][k];
+  const Eigen::Index count = static_cast<Eigen::Index>(found);
   out.setZero(3, 3 * count + static_cast<Eigen::Index>(traction_modes.size()));
   for (Eigen::Index k = 0; k < count; ++k)
     for (int i = 0; i < 3; ++i) out(i, 3 * k + i) = monomials[static_cast<std::size_t>(k)];
@@ -376,6 +387,9 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
                           PunchFrame& frame, std::string& failure) {
   require_chosen(settings, "enriched_quadratures");
   out = EnrichedQuadratures{};
+  out.patch.reserve(static_cast<std::size_t>(settings.patch_radial_points) * static_cast<std::size_t>(settings.patch_angular_points));
+  out.free_surface.reserve(static_cast<std::size_t>(settings.free_radial_points) *
+                           static_cast<std::size_t>(settings.free_azimuth_points));
   out.local_radius_m = local_radius_m;
   const double a = contact.radius_m, length = local_radius_m;
   // The patch is the disk of radius a about the contact on the organ, centred on its normal: the
@@ -605,51 +619,65 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
   };
 
   // Every boundary point: the MLS values and the ψ samples, shared by the ψ blocks and the
-  // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n.
+  // multipliers. ψ blocks as boundary forms: K_Jm = ∮ N_J σ(ψ_m)n, K_mn = ∮ ψ_m·σ(ψ_n)n. The
+  // values are stored once, as the whole boundary's samples that the gradient correction reads
+  // (its integration constraints); each rule's points are views into them.
   struct BoundaryPoint {
-    std::vector<int> nodes;
-    std::vector<double> values;
-    std::vector<PunchFieldSample> psi;
+    const int* nodes;
+    const double* values;
+    std::size_t count;
+    const PunchFieldSample* psi;  ///< one per mode
     Eigen::Vector3d x, normal;
     double weight;
   };
-  const auto sample_set = [&](const PatchQuadrature& set, const char* name, std::vector<BoundaryPoint>& points) {
-    points.resize(set.points.size());
+  const std::size_t boundary_total =
+      quad.patch.points.size() + quad.free_surface.points.size() + quad.cut.points.size() + quad.clamped.points.size();
+  ShapeSamples boundary;
+  boundary.reserve(boundary_total, boundary_total * std::min<std::size_t>(static_cast<std::size_t>(n_nodes), 64), false);
+  const std::size_t mode_count = model.modes.size();
+  std::vector<PunchFieldSample> psi_samples(boundary_total * mode_count);
+  const auto sample_set = [&](const PatchQuadrature& set, const char* name) {
     std::vector<int> in_order(set.points.size());
     std::iota(in_order.begin(), in_order.end(), 0);
     const bool sampled = evaluate_in_batches(set.points, in_order, Derivatives::values, [&](int q, const MlsEvaluation& eval) {
-      BoundaryPoint& b = points[static_cast<std::size_t>(q)];
-      b.nodes = eval.neighbours;
-      b.values = eval.value;
-      b.x = set.points[static_cast<std::size_t>(q)];
-      b.normal = set.normals[static_cast<std::size_t>(q)];
-      b.weight = set.weights[static_cast<std::size_t>(q)];
-      b.psi.resize(model.modes.size());
-      for (std::size_t i = 0; i < model.modes.size(); ++i) b.psi[i] = punch_field(model.modes[i], frame, a, material, b.x);
+      const std::size_t at = boundary.size();  // the points come in order
+      const Eigen::Vector3d& x = set.points[static_cast<std::size_t>(q)];
+      boundary.add(x, set.normals[static_cast<std::size_t>(q)], set.weights[static_cast<std::size_t>(q)],
+                   eval.neighbours.data(), eval.value.data(), nullptr, eval.neighbours.size());
+      for (std::size_t i = 0; i < mode_count; ++i) psi_samples[at * mode_count + i] = punch_field(model.modes[i], frame, a, material, x);
     });
     if (!sampled)
       throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(failed_point));
   };
-  std::vector<BoundaryPoint> patch, free_surface, cut, clamped;
   try {
-    sample_set(quad.patch, "patch", patch);
-    sample_set(quad.free_surface, "free-surface", free_surface);
-    sample_set(quad.cut, "cut", cut);
-    sample_set(quad.clamped, "clamped-surface", clamped);
+    sample_set(quad.patch, "patch");
+    sample_set(quad.free_surface, "free-surface");
+    sample_set(quad.cut, "cut");
+    sample_set(quad.clamped, "clamped-surface");
   } catch (const std::runtime_error& e) {
     return fail(e.what());
   }
-  model.boundary_points = static_cast<int>(patch.size() + free_surface.size() + cut.size() + clamped.size());
-  // The whole boundary with its MLS values: the integration constraints of the gradient correction.
-  ShapeSamples boundary;
-  if (settings.gradient_correction != GradientCorrection::none) {
-    std::size_t entries = 0;
-    for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
-      for (const BoundaryPoint& b : *set) entries += b.nodes.size();
-    boundary.reserve(static_cast<std::size_t>(model.boundary_points), entries, false);
-    for (const std::vector<BoundaryPoint>* set : {&patch, &free_surface, &cut, &clamped})
-      for (const BoundaryPoint& b : *set) boundary.add(b.x, b.normal, b.weight, b.nodes, b.values, nullptr);
-  }
+  // Each rule's points as views, taken once every sample is stored (until then it may move).
+  std::size_t first = 0;
+  const auto views = [&](std::size_t count) {
+    std::vector<BoundaryPoint> points(count);
+    for (std::size_t q = 0; q < count; ++q, ++first) {
+      const auto entry = static_cast<std::size_t>(boundary.offset[first]);
+      points[q] = {boundary.node.data() + entry,
+                   boundary.value.data() + entry,
+                   static_cast<std::size_t>(boundary.offset[first + 1]) - entry,
+                   psi_samples.data() + first * mode_count,
+                   boundary.points[first],
+                   boundary.normals[first],
+                   boundary.weights[first]};
+    }
+    return points;
+  };
+  const std::vector<BoundaryPoint> patch = views(quad.patch.points.size());
+  const std::vector<BoundaryPoint> free_surface = views(quad.free_surface.points.size());
+  const std::vector<BoundaryPoint> cut = views(quad.cut.points.size());
+  const std::vector<BoundaryPoint> clamped = views(quad.clamped.points.size());
+  model.boundary_points = static_cast<int>(boundary_total);
   const double boundary_sampling_s = seconds_since(step);
   step = clock::now();
 
@@ -793,7 +821,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
     for (const BoundaryPoint& b : *set)
       for (Eigen::Index i = 0; i < m; ++i) {
         const Eigen::Vector3d traction = b.psi[i].stress_Pa_per_m * b.normal;
-        for (std::size_t k = 0; k < b.nodes.size(); ++k)
+        for (std::size_t k = 0; k < b.count; ++k)
           K.block<3, 1>(3 * b.nodes[k], 3 * n_nodes + i) += b.weight * b.values[k] * traction;
         for (Eigen::Index j = 0; j < m; ++j) K(3 * n_nodes + j, 3 * n_nodes + i) += b.weight * b.psi[j].displacement.dot(traction);
       }
@@ -867,7 +895,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
         const BoundaryPoint& b = patch[q];
         const double mu = patch_function(k, q) * b.weight;
         integral += mu;
-        for (std::size_t j = 0; j < b.nodes.size(); ++j) row.segment<3>(3 * b.nodes[j]) += mu * b.values[j] * e.transpose();
+        for (std::size_t j = 0; j < b.count; ++j) row.segment<3>(3 * b.nodes[j]) += mu * b.values[j] * e.transpose();
         for (Eigen::Index i = 0; i < m; ++i) row(3 * n_nodes + i) += mu * e.dot(b.psi[i].displacement);
       }
       rows.push_back(row);
@@ -927,7 +955,7 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
       for (Eigen::Index j = 0; j < added; ++j) {
         const Eigen::Vector3d mu = b.weight * basis.col(j);
         Eigen::RowVectorXd& row = rows[static_cast<std::size_t>(first + j)];
-        for (std::size_t k = 0; k < b.nodes.size(); ++k) row.segment<3>(3 * b.nodes[k]) += b.values[k] * mu.transpose();
+        for (std::size_t k = 0; k < b.count; ++k) row.segment<3>(3 * b.nodes[k]) += b.values[k] * mu.transpose();
         if (surfaces[s].includes_enrichment)
           for (Eigen::Index i = 0; i < m; ++i) row(3 * n_nodes + i) += mu.dot(b.psi[i].displacement);
         // On the cut the MLS part equals the shift: ∮ μ·(Σ N_J u_J − t) = 0.

@@ -18,8 +18,7 @@ GradientGram::GradientGram(int node_count, int max_batch_points, double max_unio
     throw std::invalid_argument("GradientGram: node_count must be ≥ 0, max_batch_points ≥ 1 and max_union_growth ≥ 1");
   gram_lower_.setZero(3 * node_count, 3 * node_count);
   slot_.assign(static_cast<std::size_t>(node_count), -1);
-  batch_nodes_.resize(static_cast<std::size_t>(max_batch_points));
-  batch_gradients_.resize(static_cast<std::size_t>(max_batch_points));
+  batch_offset_.reserve(static_cast<std::size_t>(max_batch_points) + 1);
 }
 
 void GradientGram::add(const std::vector<int>& nodes, const std::vector<Eigen::Vector3d>& gradients_per_m,
@@ -37,15 +36,15 @@ void GradientGram::add(const int* nodes, const Eigen::Vector3d* gradients_per_m,
     flush();
   batch_widest_ = std::max(batch_widest_, count);
   const double root_weight = std::sqrt(std::max(weight_m3, 0.0));
-  std::vector<Eigen::Vector3d>& g = batch_gradients_[static_cast<std::size_t>(batch_size_)];
-  g.resize(static_cast<std::size_t>(count));
-  for (int k = 0; k < count; ++k) g[static_cast<std::size_t>(k)] = root_weight * gradients_per_m[k];
-  batch_nodes_[static_cast<std::size_t>(batch_size_)].assign(nodes, nodes + count);
-  for (int node : batch_nodes_[static_cast<std::size_t>(batch_size_)])
-    if (slot_[static_cast<std::size_t>(node)] < 0) {
-      slot_[static_cast<std::size_t>(node)] = 0;  // marked; numbered in flush()
-      union_nodes_.push_back(node);
+  for (int k = 0; k < count; ++k) {
+    batch_gradients_.push_back(root_weight * gradients_per_m[k]);
+    batch_nodes_.push_back(nodes[k]);
+    if (slot_[static_cast<std::size_t>(nodes[k])] < 0) {
+      slot_[static_cast<std::size_t>(nodes[k])] = 0;  // marked; numbered in flush()
+      union_nodes_.push_back(nodes[k]);
     }
+  }
+  batch_offset_.push_back(static_cast<int>(batch_nodes_.size()));
   ++batch_size_;
 }
 
@@ -56,14 +55,11 @@ void GradientGram::flush() {
   const int u = static_cast<int>(union_nodes_.size());
   for (int s = 0; s < u; ++s) slot_[static_cast<std::size_t>(union_nodes_[static_cast<std::size_t>(s)])] = s;
   local_gradients_.setZero(3 * u, batch_size_);
-  for (int p = 0; p < batch_size_; ++p) {
-    const std::vector<int>& nodes = batch_nodes_[static_cast<std::size_t>(p)];
-    const std::vector<Eigen::Vector3d>& g = batch_gradients_[static_cast<std::size_t>(p)];
-    for (std::size_t k = 0; k < nodes.size(); ++k) {
-      const int s = slot_[static_cast<std::size_t>(nodes[k])];
-      for (int i = 0; i < 3; ++i) local_gradients_(i * u + s, p) = g[k](i);
+  for (int p = 0; p < batch_size_; ++p)
+    for (int e = batch_offset_[static_cast<std::size_t>(p)]; e < batch_offset_[static_cast<std::size_t>(p) + 1]; ++e) {
+      const int s = slot_[static_cast<std::size_t>(batch_nodes_[static_cast<std::size_t>(e)])];
+      for (int i = 0; i < 3; ++i) local_gradients_(i * u + s, p) = batch_gradients_[static_cast<std::size_t>(e)](i);
     }
-  }
   // Only the lower triangle is read: zero only it (the whole square was most of the time in
   // memset on large clouds).
   local_gram_.resize(3 * u, 3 * u);
@@ -72,7 +68,7 @@ void GradientGram::flush() {
   const auto lower_triangle = [](double rows) { return rows * (rows + 1) / 2; };
   products_made_ += lower_triangle(3.0 * u) * batch_size_;
   for (int p = 0; p < batch_size_; ++p)
-    products_needed_ += lower_triangle(3.0 * static_cast<double>(batch_nodes_[static_cast<std::size_t>(p)].size()));
+    products_needed_ += lower_triangle(3.0 * (batch_offset_[static_cast<std::size_t>(p) + 1] - batch_offset_[static_cast<std::size_t>(p)]));
   // Each local row's global row, once per batch rather than a division per entry.
   global_row_.resize(static_cast<std::size_t>(3 * u));
   for (int r = 0; r < 3 * u; ++r)
@@ -84,6 +80,9 @@ void GradientGram::flush() {
   }
   for (int node : union_nodes_) slot_[static_cast<std::size_t>(node)] = -1;
   union_nodes_.clear();
+  batch_nodes_.clear();
+  batch_gradients_.clear();
+  batch_offset_.resize(1);
   batch_size_ = 0;
   batch_widest_ = 0;
 }

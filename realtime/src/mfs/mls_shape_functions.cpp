@@ -404,7 +404,9 @@ MlsStatus finish_from_inverse(const Eigen::Matrix<double, M, M>& inverse, Deriva
 /// mls_batch_size points side by side, one per lane of a vector: either basis with the quartic spline
 /// weight at support scale 1, every node a candidate. The moment sums and the M × M inverses
 /// are those of evaluate_fixed<M> lane by lane (the same operations in the same order per
-/// entry; only the exact condition number's column sums may round differently). Whatever
+/// entry; only the exact condition number's column sums may round differently); the finish
+/// (γ, γ,i, the shape functions) runs in the lanes too, with its sums in its own order, so the
+/// values and gradients agree with the one-point evaluation to rounding. Whatever
 /// evaluate_fixed would not finish at scale 1 (too few nodes, a singular or ill-conditioned A,
 /// a non-finite input) goes back to the one-point evaluation, which then grows the supports as
 /// it always does.
@@ -448,12 +450,60 @@ void basis_lanes(const Lanes& dx, const Lanes& dy, const Lanes& dz, Lanes (&p)[M
   }
 }
 
+/// A node that some lane keeps, as pass 1 of the lanes leaves it for the finish: its weight and
+/// the weight's gradient (zero in the lanes that do not keep it) and its offset x_J − x, from
+/// which the basis is rebuilt (six products, cheaper to redo than to store); then t_J = p_Jᵀγ,
+/// once the finish has γ.
+struct KeptNode {
+  Lanes w, gx, gy, gz, dx, dy, dz, t;
+  int node;
+  unsigned lanes;  ///< bit k set: lane k keeps the node
+};
+
+/// Columns First … Last − 1 of the moments' lower triangle, Σ_J W_J p_J p_Jᵀ over the kept nodes
+/// in their order, each entry (W_J p_b) p_i as the one-point evaluation sums it. A few columns
+/// at a time, so that their sums stay in registers while the nodes stream past (all 55 sums of
+/// the quadratic basis do not fit, and summing them in memory stalls on every node).
+template <int M, int First, int Last>
+[[gnu::always_inline]] inline void moment_columns(const KeptNode* kept, std::size_t count, Lanes (&moments)[M][M]) noexcept {
+  constexpr int entries = (Last - First) * M - ((Last - 1) * Last - (First - 1) * First) / 2;
+  Lanes sum[entries];
+  for (int e = 0; e < entries; ++e) sum[e] = Lanes::Zero();
+  for (std::size_t c = 0; c < count; ++c) {
+    Lanes p[M];
+    basis_lanes<M>(kept[c].dx, kept[c].dy, kept[c].dz, p);
+    int e = 0;
+    for (int b = First; b < Last; ++b) {
+      const Lanes wp = kept[c].w * p[b];
+      for (int i = b; i < M; ++i) sum[e++] += wp * p[i];
+    }
+  }
+  int e = 0;
+  for (int b = First; b < Last; ++b)
+    for (int i = b; i < M; ++i) moments[i][b] = sum[e++];
+}
+
+template <int M>
+void moment_sums(const KeptNode* kept, std::size_t count, Lanes (&moments)[M][M]) noexcept {
+  if constexpr (M == 10) {
+    moment_columns<M, 0, 1>(kept, count, moments);
+    moment_columns<M, 1, 3>(kept, count, moments);
+    moment_columns<M, 3, 6>(kept, count, moments);
+    moment_columns<M, 6, 10>(kept, count, moments);
+  } else {
+    moment_columns<M, 0, M>(kept, count, moments);
+  }
+}
+
 template <int M>
 void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
                     const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
                     MlsEvaluation* results) noexcept {
   const bool want_gradients = derivatives != Derivatives::values;
   const std::size_t node_count = std::min(positions.size(), radii.size());
+  // Per thread and never shrunk, so that later calls allocate nothing.
+  thread_local std::vector<KeptNode> kept;
+  if (kept.size() < node_count) kept.resize(node_count);
   bool vector_path[lane_count] = {};
   Lanes px, py, pz;
   for (int k = 0; k < lane_count; ++k) {
@@ -466,15 +516,13 @@ void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen
     r.support_scale = 1.0;
     r.status = MlsStatus::ok;
     clear_outputs(r);
-    r.neighbours.resize(node_count);
-    r.value.resize(node_count);
-    if (want_gradients) r.gradient.resize(node_count);
-    r.basis_scratch.resize(node_count * M);
+    r.neighbours.clear();
   }
+  // Pass 1: every node's distance test and weight in the lanes; the nodes that any lane keeps
+  // are recorded, and the moment sums run over the records.
   std::size_t found[lane_count] = {};
+  std::size_t kept_count = 0;
   Lanes moments[M][M];
-  for (int i = 0; i < M; ++i)
-    for (int j = 0; j <= i; ++j) moments[i][j] = Lanes::Zero();
   Lanes rho = Lanes::Zero();
   bool inputs_finite = true;
   for (std::size_t j = 0; j < node_count && inputs_finite; ++j) {
@@ -496,24 +544,22 @@ void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen
     const auto keep = near && s < 1.0 && w > 0.0;
     if (!keep.any()) continue;
     const Lanes kept_w = keep.select(w, Lanes::Zero());
-    Lanes p[M];
-    basis_lanes<M>(dx, dy, dz, p);
-    for (int b = 0; b < M; ++b) {
-      const Lanes wp = kept_w * p[b];
-      for (int i = b; i < M; ++i) moments[i][b] += wp * p[i];
-    }
-    const double inv_r2 = 1.0 / (r * r);
-    for (int k = 0; k < count; ++k) {
-      if (!keep[k]) continue;
-      MlsEvaluation& out = results[k];
-      const std::size_t at = found[k]++;
-      out.neighbours[at] = static_cast<int>(j);
-      out.value[at] = w[k];
-      if (want_gradients) out.gradient[at] = -dw_over_s[k] * inv_r2 * Eigen::Vector3d(dx[k], dy[k], dz[k]);
-      for (int b = 0; b < M; ++b) out.basis_scratch[at * M + static_cast<std::size_t>(b)] = p[b][k];
-      rho[k] = std::max(rho[k], r);
-    }
+    KeptNode& record = kept[kept_count++];
+    record.node = static_cast<int>(j);
+    record.lanes = 0;
+    for (int k = 0; k < count; ++k)
+      if (keep[k]) {
+        record.lanes |= 1u << k;
+        ++found[k];
+      }
+    // W,i = −(W'/s) Δ_i / r², Δ = x_J − x, as the one-point evaluation forms it.
+    const Lanes gradient_factor = keep.select(-dw_over_s * (1.0 / (r * r)), Lanes::Zero());
+    record.w = kept_w;
+    record.gx = gradient_factor * dx, record.gy = gradient_factor * dy, record.gz = gradient_factor * dz;
+    record.dx = dx, record.dy = dy, record.dz = dz;
+    rho = keep.select(rho.max(Lanes::Constant(r)), rho);
   }
+  moment_sums<M>(kept.data(), kept_count, moments);
   // Â = D A D per lane, its inverse, the exact condition number.
   Lanes frame[M];
   frame[0] = Lanes::Ones();
@@ -526,30 +572,95 @@ void evaluate_lanes(const Eigen::Vector3d* x, int count, const std::vector<Eigen
   std::fill(std::begin(positive_definite), std::end(positive_definite), true);
   invert_spd_lanes<M>(scaled, inverse, positive_definite);
   const Lanes rcond = 1.0 / (norm_1_lanes<M>(scaled) * norm_1_lanes<M>(inverse));
+  bool finished[lane_count] = {};
+  bool any_finished = false;
   for (int k = 0; k < count; ++k) {
     MlsEvaluation& out = results[k];
-    bool finished = vector_path[k] && inputs_finite && found[k] >= static_cast<std::size_t>(M) && positive_definite[k];
-    if (finished) {
-      out.neighbours.resize(found[k]);
-      out.value.resize(found[k]);
-      if (want_gradients) out.gradient.resize(found[k]);
-      out.basis_scratch.resize(found[k] * M);
+    finished[k] = vector_path[k] && inputs_finite && found[k] >= static_cast<std::size_t>(M) && positive_definite[k];
+    if (finished[k]) {
       out.rcond = std::isfinite(rcond[k]) ? rcond[k] : 0.0;
-      finished = rcond[k] >= settings.min_rcond;
+      finished[k] = rcond[k] >= settings.min_rcond;
     }
-    if (finished) {
-      Eigen::Matrix<double, M, M> inverse_k;
-      Vec<M> frame_k;
-      for (int i = 0; i < M; ++i) {
-        frame_k(i) = frame[i][k];
-        for (int j = 0; j < M; ++j) inverse_k(i, j) = inverse[i][j][k];
-      }
-      inverse_k = frame_k.asDiagonal() * inverse_k * frame_k.asDiagonal();
-      out.status = finish_from_inverse<M>(inverse_k, derivatives, out);
-      finished = out.status == MlsStatus::ok;
-    }
-    if (!finished) evaluate_mls(x[k], positions, radii, {}, settings, derivatives, out);
+    any_finished = any_finished || finished[k];
   }
+  if (any_finished) {
+    // A⁻¹ = D Â⁻¹ D in the physical frame; γ is its first column.
+    for (int i = 0; i < M; ++i)
+      for (int j = 0; j < M; ++j) inverse[i][j] = frame[i] * inverse[i][j] * frame[j];
+    // Pass 2 (gradients): t_J = p_Jᵀγ, and A γ,i = p,i − Σ W_J,i t_J p_J.
+    Lanes rhs[M][3];
+    for (int b = 0; b < M; ++b)
+      for (int i = 0; i < 3; ++i) rhs[b][i] = (b == i + 1) ? Lanes::Ones() : Lanes::Zero();
+    for (std::size_t c = 0; c < kept_count; ++c) {
+      KeptNode& record = kept[c];
+      Lanes p[M];
+      basis_lanes<M>(record.dx, record.dy, record.dz, p);
+      Lanes t = p[0] * inverse[0][0];
+      for (int b = 1; b < M; ++b) t += p[b] * inverse[b][0];
+      record.t = t;
+      if (!want_gradients) continue;
+      const Lanes tgx = t * record.gx, tgy = t * record.gy, tgz = t * record.gz;
+      for (int b = 0; b < M; ++b) {
+        rhs[b][0] -= p[b] * tgx;
+        rhs[b][1] -= p[b] * tgy;
+        rhs[b][2] -= p[b] * tgz;
+      }
+    }
+    Lanes gamma_1[M][3];
+    if (want_gradients)
+      for (int b = 0; b < M; ++b)
+        for (int i = 0; i < 3; ++i) {
+          Lanes v = inverse[b][0] * rhs[0][i];
+          for (int c = 1; c < M; ++c) v += inverse[b][c] * rhs[c][i];
+          gamma_1[b][i] = v;
+        }
+    // Pass 3: h_J = W_J t_J and h_J,i = W_J,i t_J + W_J t_J,i, handed to the lanes that keep J;
+    // a running sum per lane catches any overflow so that no Inf/NaN escapes.
+    for (int k = 0; k < count; ++k)
+      if (finished[k]) {
+        results[k].neighbours.resize(found[k]);
+        results[k].value.resize(found[k]);
+        if (want_gradients) results[k].gradient.resize(found[k]);
+        found[k] = 0;
+      }
+    Lanes check = Lanes::Zero();
+    for (std::size_t c = 0; c < kept_count; ++c) {
+      const KeptNode& record = kept[c];
+      const Lanes value = record.w * record.t;
+      Lanes gradient[3];
+      check += value;
+      if (want_gradients) {
+        Lanes p[M];
+        basis_lanes<M>(record.dx, record.dy, record.dz, p);
+        const Lanes* own[3] = {&record.gx, &record.gy, &record.gz};
+        for (int i = 0; i < 3; ++i) {
+          Lanes t_i = p[0] * gamma_1[0][i];
+          for (int b = 1; b < M; ++b) t_i += p[b] * gamma_1[b][i];
+          gradient[i] = record.t * *own[i] + record.w * t_i;
+          check += gradient[i];
+        }
+      }
+      for (int k = 0; k < count; ++k) {
+        if (!finished[k] || !(record.lanes & (1u << k))) continue;
+        MlsEvaluation& out = results[k];
+        const std::size_t at = found[k]++;
+        out.neighbours[at] = record.node;
+        out.value[at] = value[k];
+        if (want_gradients) out.gradient[at] = Eigen::Vector3d(gradient[0][k], gradient[1][k], gradient[2][k]);
+      }
+    }
+    for (int k = 0; k < count; ++k) {
+      if (!finished[k]) continue;
+      bool finite = std::isfinite(check[k]);
+      for (int b = 0; b < M && finite; ++b) {
+        finite = std::isfinite(inverse[b][0][k]);
+        for (int i = 0; i < 3 && finite && want_gradients; ++i) finite = std::isfinite(gamma_1[b][i][k]);
+      }
+      finished[k] = finite;
+    }
+  }
+  for (int k = 0; k < count; ++k)
+    if (!finished[k]) evaluate_mls(x[k], positions, radii, {}, settings, derivatives, results[k]);
 }
 
 }  // namespace

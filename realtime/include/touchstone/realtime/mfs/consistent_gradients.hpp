@@ -44,6 +44,9 @@ struct ShapeSamples {
   /// Appends a point with its nodes' values (and gradients, for a volume sample).
   void add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const std::vector<int>& nodes,
            const std::vector<double>& values, const std::vector<Eigen::Vector3d>* gradients);
+  /// The same from arrays of `count` entries (gradients may be null).
+  void add(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double weight, const int* nodes, const double* values,
+           const Eigen::Vector3d* gradients, std::size_t count);
 };
 
 /// Whether the gradients are corrected.

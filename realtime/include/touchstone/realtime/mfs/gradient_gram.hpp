@@ -49,10 +49,11 @@ class GradientGram {
   int node_count_, max_batch_points_;
   double max_union_growth_;
   Eigen::MatrixXd gram_lower_;  // lower triangle of A, component-major (symmetrised when read)
-  // The open batch: its points' nodes, √w-weighted gradients, and the union of nodes with each
+  // The open batch: its points' nodes and √w-weighted gradients in compressed rows (point p's
+  // are entries batch_offset_[p] … batch_offset_[p + 1] − 1), and the union of nodes with each
   // node's slot in it (−1: not in the batch).
-  std::vector<std::vector<int>> batch_nodes_;
-  std::vector<std::vector<Eigen::Vector3d>> batch_gradients_;
+  std::vector<int> batch_nodes_, batch_offset_{0};
+  std::vector<Eigen::Vector3d> batch_gradients_;
   int batch_size_ = 0, batch_widest_ = 0;
   std::vector<int> union_nodes_, slot_;
   std::vector<Eigen::Index> global_row_;  // the open batch's local row → row of A

@@ -20,6 +20,13 @@ namespace touchstone::realtime::mfs {
 struct PatchQuadrature {
   std::vector<Eigen::Vector3d> points, normals;
   std::vector<double> weights;
+
+  /// Room for `count` points, so that a rule built point by point does not regrow.
+  void reserve(std::size_t count) {
+    points.reserve(count);
+    normals.reserve(count);
+    weights.reserve(count);
+  }
 };
 
 PatchQuadrature patch_quadrature(const geometry::TriangleSurface& organ, const ToolContact& contact,
