@@ -387,7 +387,8 @@ bool enriched_quadratures(const LocalSurface& surface, const ToolContact& contac
                           PunchFrame& frame, std::string& failure) {
   require_chosen(settings, "enriched_quadratures");
   out = EnrichedQuadratures{};
-  out.patch.reserve(static_cast<std::size_t>(settings.patch_radial_points) * static_cast<std::size_t>(settings.patch_angular_points));
+  out.patch.reserve(static_cast<std::size_t>(settings.patch_radial_points) *
+                    static_cast<std::size_t>(settings.patch_angular_points));
   out.free_surface.reserve(static_cast<std::size_t>(settings.free_radial_points) *
                            static_cast<std::size_t>(settings.free_azimuth_points));
   out.local_radius_m = local_radius_m;
@@ -644,7 +645,8 @@ EnrichedModel build_enriched_model(NodeCloud& cloud, const geometry::Material& m
       const Eigen::Vector3d& x = set.points[static_cast<std::size_t>(q)];
       boundary.add(x, set.normals[static_cast<std::size_t>(q)], set.weights[static_cast<std::size_t>(q)],
                    eval.neighbours.data(), eval.value.data(), nullptr, eval.neighbours.size());
-      for (std::size_t i = 0; i < mode_count; ++i) psi_samples[at * mode_count + i] = punch_field(model.modes[i], frame, a, material, x);
+      for (std::size_t i = 0; i < mode_count; ++i)
+        psi_samples[at * mode_count + i] = punch_field(model.modes[i], frame, a, material, x);
     });
     if (!sampled)
       throw std::runtime_error(std::string("shape functions failed at ") + name + " quadrature point " + std::to_string(failed_point));

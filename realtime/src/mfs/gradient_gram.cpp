@@ -67,8 +67,8 @@ void GradientGram::flush() {
   local_gram_.selfadjointView<Eigen::Lower>().rankUpdate(local_gradients_);
   const auto lower_triangle = [](double rows) { return rows * (rows + 1) / 2; };
   products_made_ += lower_triangle(3.0 * u) * batch_size_;
-  for (int p = 0; p < batch_size_; ++p)
-    products_needed_ += lower_triangle(3.0 * (batch_offset_[static_cast<std::size_t>(p) + 1] - batch_offset_[static_cast<std::size_t>(p)]));
+  for (std::size_t p = 0; p < static_cast<std::size_t>(batch_size_); ++p)
+    products_needed_ += lower_triangle(3.0 * (batch_offset_[p + 1] - batch_offset_[p]));
   // Each local row's global row, once per batch rather than a division per entry.
   global_row_.resize(static_cast<std::size_t>(3 * u));
   for (int r = 0; r < 3 * u; ++r)

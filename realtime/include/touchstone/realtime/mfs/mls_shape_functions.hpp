@@ -85,8 +85,8 @@ inline constexpr int mls_batch_size = 4;
 /// the same neighbours, statuses and support growth, and the same values and gradients to
 /// rounding. With the quartic spline (the default) and without Hessians the points share one
 /// pass over the nodes, their moment sums, M × M inverses and shape functions (either basis)
-/// computed side by side in the lanes of a vector; a point that needs its supports grown or fails is evaluated
-/// on its own. Other settings evaluate the points one by one.
+/// computed side by side in the lanes of a vector; a point that needs its supports grown or
+/// fails is evaluated on its own. Other settings evaluate the points one by one.
 void evaluate_mls_batch(const Eigen::Vector3d* x, int count, const std::vector<Eigen::Vector3d>& positions,
                         const std::vector<double>& radii, const MlsSettings& settings, Derivatives derivatives,
                         MlsEvaluation* results) noexcept;
